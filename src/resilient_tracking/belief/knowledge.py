@@ -1,0 +1,99 @@
+"""Zone knowledge: what a robot believes about danger zones (SPEC §2).
+
+A zone estimate carries its kind, center mean and covariance, size (radius ``r`` for sensing,
+jamming strength ``δ2`` for comm), source and the step it was learned. Within a league the
+knowledge bases are merged every step: union by zone identity, and estimates without an
+identity (inferred from observation) merged with a known one of the same kind nearby.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from resilient_tracking.observation import ZoneClue
+
+Source = Literal["attack", "broadcast", "circle"]
+
+#: Mahalanobis distance under which an unidentified estimate is the same zone as another.
+SAME_ZONE_MAHALANOBIS = 3.0
+
+
+@dataclass(frozen=True)
+class ZoneEstimate:
+    """A belief about one danger zone."""
+
+    key: str
+    kind: Literal["sensing", "comm"]
+    mean: np.ndarray
+    cov: np.ndarray
+    size: float
+    persistence: str
+    source: Source
+    learned_step: int
+    #: the zone's id when learned from an attack clue; None when inferred
+    zone_id: int | None = None
+
+    @classmethod
+    def from_clue(cls, clue: ZoneClue, step: int) -> ZoneEstimate:
+        return cls(
+            key=f"zone{clue.zone_id}",
+            kind=clue.kind,
+            mean=np.asarray(clue.mu, dtype=float),
+            cov=np.asarray(clue.sigma, dtype=float),
+            size=float(clue.size),
+            persistence=clue.persistence,
+            source="attack",
+            learned_step=step,
+            zone_id=clue.zone_id,
+        )
+
+    def mahalanobis(self, other: ZoneEstimate) -> float:
+        d = self.mean - other.mean
+        return float(np.sqrt(d @ np.linalg.solve(self.cov + other.cov, d)))
+
+
+class KnowledgeBase:
+    """One robot's (or one league's) zone estimates, keyed by identity."""
+
+    def __init__(self, zones: dict[str, ZoneEstimate] | None = None):
+        self.zones: dict[str, ZoneEstimate] = dict(zones or {})
+
+    def __len__(self) -> int:
+        return len(self.zones)
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.zones
+
+    def copy(self) -> KnowledgeBase:
+        return KnowledgeBase(self.zones)
+
+    def of_kind(self, kind: str) -> list[ZoneEstimate]:
+        """Estimates of one kind, in a stable order (by key)."""
+        return [z for k, z in sorted(self.zones.items()) if z.kind == kind]
+
+    def learn(self, estimate: ZoneEstimate) -> bool:
+        """Add an estimate; returns whether anything new was learned."""
+        if estimate.key in self.zones:
+            return False
+        if estimate.zone_id is None:
+            for known in self.zones.values():
+                if (
+                    known.kind == estimate.kind
+                    and known.mahalanobis(estimate) <= SAME_ZONE_MAHALANOBIS
+                ):
+                    return False
+        self.zones[estimate.key] = estimate
+        return True
+
+    @staticmethod
+    def union(bases: list[KnowledgeBase]) -> KnowledgeBase:
+        """League merge: identified estimates first (oldest wins), then inferred ones."""
+        merged = KnowledgeBase()
+        entries = [z for kb in bases for z in kb.zones.values()]
+        entries.sort(key=lambda z: (z.zone_id is None, z.learned_step, z.key))
+        for z in entries:
+            merged.learn(z)
+        return merged

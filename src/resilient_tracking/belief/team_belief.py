@@ -1,0 +1,148 @@
+"""The team's belief: leagues, one shared target estimate per league, zone knowledge per robot.
+
+Each tick (SPEC §2–3):
+
+1. attack clues are learned by their victims (if the team learns zones at all);
+2. leagues are the connected components of the observed link graph;
+3. league estimates follow the robots: a league that gathers robots from several previous
+   leagues fuses their estimates by covariance intersection, a league that split keeps a copy;
+4. each league's EKF predicts to now and updates with its sensing members' measurements;
+5. knowledge is merged within each league.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+from resilient_tracking.belief.ekf import ExtendedKalmanFilter
+from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.fusion import fuse_estimates
+from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.events import TEAM, Event
+from resilient_tracking.models.graph import components
+from resilient_tracking.observation import TeamObservation
+
+
+class TeamBelief:
+    """Belief of all robots of a team, organised by league."""
+
+    def __init__(
+        self,
+        n_robots: int,
+        initial: TargetEstimate,
+        ekf: ExtendedKalmanFilter,
+        learns_zones: bool = True,
+        ci_criterion: Literal["trace", "det"] = "trace",
+    ):
+        self.n_robots = n_robots
+        self.ekf = ekf
+        self.learns_zones = learns_zones
+        self.ci_criterion = ci_criterion
+        self.leagues: list[list[int]] = [list(range(n_robots))]
+        self.league_of = np.zeros(n_robots, dtype=int)
+        self.estimates: list[TargetEstimate] = [initial]  # one per league
+        self.knowledge: list[KnowledgeBase] = [KnowledgeBase() for _ in range(n_robots)]
+        self.sensing_ok = np.ones(n_robots, dtype=bool)
+        self.last_step: int | None = None
+        #: zone estimates learned this tick: (robot, estimate), for the knowledge table
+        self.learned: list[tuple[int, ZoneEstimate]] = []
+
+    # ------------------------------------------------------------------ tick
+
+    def update(self, obs: TeamObservation) -> list[Event]:
+        events: list[Event] = []
+        self.learned = []
+        self.sensing_ok = np.asarray(obs.sensing_ok, dtype=bool)
+        if self.learns_zones:
+            for attack in obs.attacks:
+                self._learn(attack.robot, ZoneEstimate.from_clue(attack.clue, obs.step))
+        events += self._regroup(components(obs.links), obs.step)
+        if self.last_step is not None:
+            self.estimates = [self.ekf.predict(e) for e in self.estimates]
+        self.last_step = obs.step
+        for k, league in enumerate(self.leagues):
+            sensing = [i for i in league if obs.sensing_ok[i]]
+            if sensing:
+                self.estimates[k] = self.ekf.update(
+                    self.estimates[k], obs.positions[sensing], obs.measurements[sensing]
+                )
+        if self.learns_zones:
+            self._share_knowledge()
+        return events
+
+    def learn(self, robot: int, estimate: ZoneEstimate) -> None:
+        """Add knowledge found by a robot (e.g. an inferred zone); shared at the next tick."""
+        self._learn(robot, estimate)
+
+    def _learn(self, robot: int, estimate: ZoneEstimate) -> None:
+        if self.knowledge[robot].learn(estimate):
+            self.learned.append((robot, estimate))
+
+    def _regroup(self, leagues: list[list[int]], step: int) -> list[Event]:
+        events: list[Event] = []
+        old_of = self.league_of
+        # how many new leagues each old league feeds: more than one means it split
+        feeds: dict[int, int] = {}
+        for league in leagues:
+            for old in sorted({int(old_of[i]) for i in league}):
+                feeds[old] = feeds.get(old, 0) + 1
+        estimates: list[TargetEstimate] = []
+        for league in leagues:
+            sources = sorted({int(old_of[i]) for i in league})
+            estimate = self.estimates[sources[0]]
+            for other in sources[1:]:
+                estimate, lambdas = fuse_estimates(
+                    estimate, self.estimates[other], criterion=self.ci_criterion
+                )
+                members = [i for i in league if old_of[i] == other]
+                events.append(
+                    Event(
+                        step,
+                        TEAM,
+                        "league_merge",
+                        f"robots {members} joined {league}; lambda={np.round(lambdas, 3).tolist()}",
+                    )
+                )
+            if len(sources) == 1 and feeds[sources[0]] > 1:
+                estimate = estimate.copy()
+                events.append(Event(step, TEAM, "league_split", f"league {league} split off"))
+            estimates.append(estimate)
+        self.leagues = leagues
+        self.estimates = estimates
+        self.league_of = np.empty(self.n_robots, dtype=int)
+        for k, league in enumerate(leagues):
+            self.league_of[league] = k
+        return events
+
+    def _share_knowledge(self) -> None:
+        for league in self.leagues:
+            if len(league) < 2:
+                continue
+            merged = KnowledgeBase.union([self.knowledge[i] for i in league])
+            for i in league:
+                for key, zone in merged.zones.items():
+                    if key not in self.knowledge[i]:
+                        self.learned.append((i, zone))
+                self.knowledge[i] = merged.copy()
+
+    # ------------------------------------------------------------------ queries
+
+    def league_estimate(self, robot: int) -> TargetEstimate:
+        return self.estimates[int(self.league_of[robot])]
+
+    def league_knowledge(self, league: list[int]) -> KnowledgeBase:
+        """Knowledge shared within a league (identical for its members after a tick)."""
+        return self.knowledge[league[0]]
+
+    def team_estimate(self) -> TargetEstimate:
+        """The estimate of the league with most sensing robots; ties go to the lower trace."""
+        best = min(
+            range(len(self.leagues)),
+            key=lambda k: (
+                -int(self.sensing_ok[self.leagues[k]].sum()),
+                self.estimates[k].position_trace(),
+            ),
+        )
+        return self.estimates[best]

@@ -1,0 +1,1 @@
+"""Planning: the league NLP built once per structure, and the solver that runs it safely."""

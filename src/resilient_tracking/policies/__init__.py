@@ -1,0 +1,17 @@
+"""Policies a user picks by name; each decides from belief only (never from ``world``)."""
+
+from __future__ import annotations
+
+from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.vanilla import VanillaPolicy
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.team_config import TeamConfig
+
+__all__ = ["Decision", "Policy", "VanillaPolicy", "make_policy"]
+
+
+def make_policy(name: str, scenario: Scenario, config: TeamConfig) -> Policy:
+    """The policy called ``name`` with its parameters from the scenario."""
+    if name == "vanilla":
+        return VanillaPolicy(config, scenario.policy.vanilla)
+    raise ValueError(f"policy: unknown name {name!r}")

@@ -1,0 +1,93 @@
+"""The policy contract: belief and observation in, velocity commands out."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.events import Event
+from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.league_problem import ProblemInputs, Structure
+from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
+from resilient_tracking.team_config import TeamConfig
+
+
+@dataclass
+class Decision:
+    """What a policy returns for one tick."""
+
+    controls: np.ndarray  # (M, 2)
+    modes: list[str]
+    events: list[Event] = field(default_factory=list)
+    plans: list[PlanResult] = field(default_factory=list)
+
+    @property
+    def plan_ms(self) -> float:
+        return float(sum(p.solve_ms for p in self.plans))
+
+
+class Policy(ABC):
+    """Decides velocities from belief; ``learns_zones`` says whether the team keeps zone
+    knowledge at all (the vanilla team does not)."""
+
+    name: str = "policy"
+    learns_zones: bool = True
+
+    def __init__(self, config: TeamConfig, planner: LeaguePlanner | None = None):
+        self.config = config
+        self.planner = planner or LeaguePlanner()
+
+    @abstractmethod
+    def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision: ...
+
+    # ------------------------------------------------------------------ shared helpers
+
+    def tracking_inputs(
+        self,
+        belief: TeamBelief,
+        obs: TeamObservation,
+        robots: list[int],
+        league: int,
+        weights: np.ndarray,
+        sensing: np.ndarray,
+        sensing_zones: np.ndarray | None = None,
+        comm_zones: np.ndarray | None = None,
+    ) -> ProblemInputs:
+        """Numeric inputs of a league problem: predicted targets, bounds, zones."""
+        predicted = belief.ekf.predict(belief.estimates[league])
+        lower, upper = self.config.velocity_bounds(robots, obs.positions)
+        return ProblemInputs(
+            positions=obs.positions[robots],
+            sensing=sensing.astype(float),
+            targets=predicted.mean[:, :2],
+            prior_info=np.linalg.inv(predicted.cov[:, :2, :2]),
+            weights=weights,
+            sensor=self.config.sensor_params,
+            dt=self.config.dt,
+            u_lower=lower,
+            u_upper=upper,
+            sensing_zones=np.zeros((0, 7)) if sensing_zones is None else sensing_zones,
+            comm_zones=np.zeros((0, 7)) if comm_zones is None else comm_zones,
+        )
+
+    def solve(
+        self, robots: list[int], q: ProblemInputs, step: int, decision: Decision
+    ) -> np.ndarray:
+        """Plan for ``robots``; record the result and any fallback in ``decision``."""
+        structure = Structure(
+            n_robots=len(robots),
+            n_targets=len(q.targets),
+            n_sensing_zones=len(q.sensing_zones),
+            n_comm_zones=len(q.comm_zones),
+        )
+        result = self.planner.plan(structure, tuple(robots), q)
+        decision.plans.append(result)
+        if result.fallback:
+            for i in robots:
+                decision.events.append(
+                    Event(step, i, "solver_fallback", f"{result.fallback}: {result.status}")
+                )
+        return result.controls

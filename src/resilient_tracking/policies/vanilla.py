@@ -1,0 +1,42 @@
+"""Vanilla baseline (SPEC §5): fixed weights, no zone knowledge, no adaptation.
+
+Each league minimises ``w1 Σ tr P⁺ + w2 Σ‖u‖²``; robots that cannot sense contribute nothing,
+and a robot cut off from the others plans alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.planner import LeaguePlanner
+from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.scenario import VanillaParams
+from resilient_tracking.team_config import TeamConfig
+
+
+class VanillaPolicy(Policy):
+    name = "vanilla"
+    learns_zones = False
+
+    def __init__(
+        self, config: TeamConfig, params: VanillaParams, planner: LeaguePlanner | None = None
+    ):
+        super().__init__(config, planner)
+        self.weights = np.array([params.w_track, params.w_effort, 0.0, 0.0])
+
+    def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
+        m = obs.n_robots
+        decision = Decision(controls=np.zeros((m, 2)), modes=["idle"] * m)
+        for k, robots in enumerate(belief.leagues):
+            # Robots that cannot sense gain nothing by moving: they stay put ("idle").
+            sensing = [i for i in robots if obs.sensing_ok[i]]
+            if not sensing:
+                continue
+            q = self.tracking_inputs(belief, obs, sensing, k, self.weights, np.ones(len(sensing)))
+            decision.controls[sensing] = self.solve(sensing, q, obs.step, decision)
+            mode = "league" if len(robots) > 1 else "individual"
+            for i in sensing:
+                decision.modes[i] = mode
+        return decision

@@ -1,0 +1,326 @@
+"""Scenario files: schema, loading and validation with errors that name the field.
+
+A scenario is a YAML mapping validated by the pydantic models below. ``load_scenario`` returns a
+:class:`Scenario` or raises :class:`ScenarioError` listing every problem as
+``field.path: message (got value)``. The format is documented in ``docs/scenario-format.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+Vec2 = tuple[float, float]
+Matrix2 = tuple[Vec2, Vec2]
+PositiveFloat = Annotated[float, Field(gt=0)]
+
+
+class Strict(BaseModel):
+    """Base: unknown keys are errors, NaN and infinity are rejected."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+
+
+# ---------------------------------------------------------------------------- geometry
+
+
+class Workspace(Strict):
+    """Axis-aligned box the robots stay in (metres)."""
+
+    xmin: float = -5.0
+    xmax: float = 5.0
+    ymin: float = -5.0
+    ymax: float = 5.0
+
+    def contains(self, p: Vec2) -> bool:
+        return self.xmin <= p[0] <= self.xmax and self.ymin <= p[1] <= self.ymax
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([self.xmin, self.ymin])
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([self.xmax, self.ymax])
+
+
+# ---------------------------------------------------------------------------- robots, targets
+
+
+class RobotSpec(Strict):
+    start: Vec2
+    u_max: PositiveFloat = 1.0
+
+
+class ConstantVelocity(Strict):
+    type: Literal["constant_velocity"]
+    velocity: Vec2
+
+
+class Waypoints(Strict):
+    type: Literal["waypoints"]
+    points: list[Vec2] = Field(min_length=1)
+    speed: PositiveFloat
+    loop: bool = False
+
+
+class Circle(Strict):
+    """Circle around ``center`` through the start point; positive ``angular_speed`` is CCW."""
+
+    type: Literal["circle"]
+    center: Vec2
+    angular_speed: float
+
+
+class NoisyConstantVelocity(Strict):
+    """Nearly-constant-velocity truth: white acceleration noise of ``accel_std`` per axis."""
+
+    type: Literal["ncv"]
+    velocity: Vec2 = (0.0, 0.0)
+    accel_std: float = Field(0.1, ge=0)
+
+
+TargetMotion = Annotated[
+    ConstantVelocity | Waypoints | Circle | NoisyConstantVelocity, Field(discriminator="type")
+]
+
+
+class TargetSpec(Strict):
+    start: Vec2
+    motion: TargetMotion
+
+
+# ---------------------------------------------------------------------------- sensing, estimation
+
+
+class SensorChannel(Strict):
+    """One channel: inverse variance ``peak · exp(−shape · d)``."""
+
+    peak: PositiveFloat = 15.0
+    shape: float = Field(0.2, ge=0)
+
+
+class SensorSpec(Strict):
+    range: SensorChannel = SensorChannel()
+    bearing: SensorChannel = SensorChannel()
+    max_range: PositiveFloat | None = None
+
+
+class EstimatorSpec(Strict):
+    """The robots' target model (nearly constant velocity) and initial uncertainty."""
+
+    accel_std: float = Field(0.2, gt=0)
+    initial_position_std: PositiveFloat = 0.5
+    initial_velocity_std: PositiveFloat = 0.3
+
+
+# ---------------------------------------------------------------------------- danger zones
+
+
+class GaussianHazard(Strict):
+    """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (SPEC §1.1)."""
+
+    model: Literal["gaussian"]
+    f_act: PositiveFloat = 1.0
+    kappa: PositiveFloat = 1.0
+
+
+class DiskHazard(Strict):
+    """Hit with probability ``p_hit`` at each activation tick while inside the true disk."""
+
+    model: Literal["disk"]
+    f_act: PositiveFloat = 1.0
+    p_hit: float = Field(0.5, ge=0, le=1)
+
+
+Hazard = Annotated[GaussianHazard | DiskHazard, Field(discriminator="model")]
+
+
+def _check_covariance(value: Matrix2) -> Matrix2:
+    m = np.asarray(value, dtype=float)
+    if not np.allclose(m, m.T, rtol=0, atol=1e-12):
+        raise ValueError("must be symmetric")
+    if np.linalg.eigvalsh(m).min() <= 0:
+        raise ValueError("must be positive definite")
+    sym = (m + m.T) / 2
+    return ((sym[0, 0], sym[0, 1]), (sym[1, 0], sym[1, 1]))
+
+
+class ZoneBase(Strict):
+    name: str | None = None
+    mu: Vec2
+    sigma: Matrix2
+    persistence: Literal["temporary", "permanent"] = "temporary"
+    hazard: Hazard = GaussianHazard(model="gaussian")
+    m_recover: PositiveFloat = 2.0
+
+    _sigma_ok = field_validator("sigma")(_check_covariance)
+
+
+class SensingZone(ZoneBase):
+    kind: Literal["sensing"]
+    radius: PositiveFloat
+
+
+class CommZone(ZoneBase):
+    kind: Literal["comm"]
+    delta2: PositiveFloat
+
+
+Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]
+
+
+# ---------------------------------------------------------------------------- policies
+
+
+class VanillaParams(Strict):
+    """Fixed weights (SPEC §5 Vanilla): tracking trace and control effort."""
+
+    w_track: PositiveFloat = 50.0
+    w_effort: PositiveFloat = 0.05
+
+
+class PolicySpec(Strict):
+    name: Literal["vanilla"] = "vanilla"
+    vanilla: VanillaParams = VanillaParams()
+
+
+POLICY_NAMES: tuple[str, ...] = ("vanilla",)
+
+
+# ---------------------------------------------------------------------------- scenario
+
+
+class Scenario(Strict):
+    name: str = "scenario"
+    description: str = ""
+    seed: int = Field(0, ge=0)
+    dt: PositiveFloat = 0.1
+    steps: int = Field(300, ge=1, le=1_000_000)
+    workspace: Workspace = Workspace()
+    sensor: SensorSpec = SensorSpec()
+    estimator: EstimatorSpec = EstimatorSpec()
+    robots: list[RobotSpec] = Field(min_length=1, max_length=500)
+    targets: list[TargetSpec] = Field(min_length=1, max_length=500)
+    zones: list[Zone] = Field(default_factory=list, max_length=200)
+    comm_range: PositiveFloat | None = None
+    policy: PolicySpec = PolicySpec()
+
+    def problems(self) -> list[str]:
+        """Cross-field problems pydantic cannot see, each naming its field."""
+        out: list[str] = []
+        ws = self.workspace
+        if ws.xmin >= ws.xmax:
+            out.append(f"workspace.xmax: must exceed xmin={ws.xmin} (got {ws.xmax})")
+        if ws.ymin >= ws.ymax:
+            out.append(f"workspace.ymax: must exceed ymin={ws.ymin} (got {ws.ymax})")
+        for i, robot in enumerate(self.robots):
+            if not ws.contains(robot.start):
+                out.append(f"robots.{i}.start: outside the workspace (got {list(robot.start)})")
+        for j, target in enumerate(self.targets):
+            if not ws.contains(target.start):
+                out.append(f"targets.{j}.start: outside the workspace (got {list(target.start)})")
+            motion = target.motion
+            if isinstance(motion, Circle) and math.dist(motion.center, target.start) == 0:
+                out.append(
+                    f"targets.{j}.motion.center: equals the start, radius would be 0 "
+                    f"(got {list(motion.center)})"
+                )
+        return out
+
+    def with_overrides(self, **changes: Any) -> Scenario:
+        """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…)."""
+        data = self.model_dump()
+        data.update(changes)
+        return parse_scenario(data, f"{self.name} (overridden)")
+
+
+# ---------------------------------------------------------------------------- loading
+
+
+class ScenarioError(ValueError):
+    """A scenario file is invalid; ``problems`` lists each one with its field path."""
+
+    def __init__(self, source: str, problems: list[str]):
+        self.source = source
+        self.problems = problems
+        lines = "\n".join(f"  - {p}" for p in problems)
+        super().__init__(f"{source}: {len(problems)} problem(s)\n{lines}")
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+#: Discriminator key of the tagged union held by a field (a list's items for ``zones``).
+_UNION_TAG = {"zones": "kind", "motion": "type", "hazard": "model"}
+
+
+def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
+    """Dotted path of an error in ``data``, without the union tags pydantic inserts in ``loc``.
+
+    pydantic reports ``zones.0.sensing.sigma`` for a bad ``sigma`` of a sensing zone; the user's
+    file has no key ``sensing``, so the tag is dropped: ``zones.0.sigma``.
+    """
+    parts: list[str] = []
+    node, owner = data, None
+    for part in loc:
+        tag = _UNION_TAG.get(owner) if isinstance(owner, str) and isinstance(node, dict) else None
+        if tag is not None and node.get(tag) == part:
+            owner = None
+            continue
+        parts.append(str(part))
+        if isinstance(part, str):
+            owner = part
+        if isinstance(node, dict):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and -len(node) <= part < len(node):
+            node = node[part]
+        else:
+            node = None
+    return ".".join(parts) or "<root>"
+
+
+def _format_pydantic(err: ValidationError, data: Any) -> list[str]:
+    out = []
+    for e in err.errors():
+        path = _field_path(e["loc"], data)
+        msg = e["msg"].removeprefix("Value error, ")
+        out.append(f"{path}: {msg} (got {_short(e.get('input'))})")
+    return out
+
+
+def parse_scenario(data: Any, source: str = "<scenario>") -> Scenario:
+    """Validate a parsed mapping; raise :class:`ScenarioError` naming every bad field."""
+    if not isinstance(data, dict):
+        raise ScenarioError(source, [f"<root>: must be a mapping (got {type(data).__name__})"])
+    try:
+        scenario = Scenario.model_validate(data)
+    except ValidationError as err:
+        raise ScenarioError(source, _format_pydantic(err, data)) from None
+    problems = scenario.problems()
+    if problems:
+        raise ScenarioError(source, problems)
+    return scenario
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a YAML scenario file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise ScenarioError(str(path), [f"<file>: cannot read ({err.strerror})"]) from None
+    except UnicodeDecodeError as err:
+        raise ScenarioError(str(path), [f"<file>: not UTF-8 text ({err.reason})"]) from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ScenarioError(str(path), [f"<yaml>: not valid YAML ({err})"]) from None
+    return parse_scenario(data, str(path))

@@ -1,0 +1,222 @@
+"""The episode loop: the only place where truth (world) and belief (team) meet.
+
+Per step ``k``: the world is observed, the team updates its belief and plans, the step's
+metrics are recorded (truth at ``k`` against the team's estimate at ``k``), then the world
+advances with the commands.
+"""
+
+from __future__ import annotations
+
+import logging
+import platform
+import time
+from collections.abc import Callable
+from typing import Any
+
+import casadi
+import numpy as np
+
+from resilient_tracking import __version__
+from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.events import Event
+from resilient_tracking.observation import TeamObservation
+from resilient_tracking.policies import make_policy
+from resilient_tracking.rng import stream
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.sim.metrics import effort, mse
+from resilient_tracking.sim.records import EpisodeResult, frame
+from resilient_tracking.team import Team, TeamStep
+from resilient_tracking.team_config import TeamConfig
+from resilient_tracking.world import World
+
+log = logging.getLogger(__name__)
+
+
+def initial_estimate(scenario: Scenario, world: World, seed: int) -> TargetEstimate:
+    """The team's prior: truth perturbed by the declared initial uncertainty (own stream)."""
+    spec = scenario.estimator
+    std = np.array([spec.initial_position_std] * 2 + [spec.initial_velocity_std] * 2)
+    truth = world.target_states
+    noise = stream(seed, "estimator_init").standard_normal(truth.shape) * std
+    return TargetEstimate.initial(
+        truth + noise, spec.initial_position_std, spec.initial_velocity_std
+    )
+
+
+class _Recorder:
+    """Collects rows while the episode runs."""
+
+    def __init__(self, world: World):
+        self.team: list[dict[str, Any]] = []
+        self.robots: list[dict[str, Any]] = []
+        self.targets: list[dict[str, Any]] = []
+        self.events: list[dict[str, Any]] = []
+        self.knowledge: list[dict[str, Any]] = []
+        self.zones = [
+            {
+                "zone": z.id,
+                "name": z.spec.name or f"{z.kind[0].upper()}{z.id}",
+                "kind": z.kind,
+                "persistence": z.spec.persistence,
+                "mu_x": z.mu[0],
+                "mu_y": z.mu[1],
+                "sigma_xx": z.sigma[0, 0],
+                "sigma_xy": z.sigma[0, 1],
+                "sigma_yy": z.sigma[1, 1],
+                "size": z.size,
+                "true_x": z.center[0],
+                "true_y": z.center[1],
+            }
+            for z in world.zones
+        ]
+
+    def event(self, e: Event) -> None:
+        self.events.append({"step": e.step, "robot": e.robot, "event": e.event, "detail": e.detail})
+
+    def observation(self, obs: TeamObservation) -> None:
+        for a in obs.attacks:
+            c = a.clue
+            self.event(
+                Event(
+                    obs.step,
+                    a.robot,
+                    "attack",
+                    f"{c.kind} zone{c.zone_id} {c.persistence} ({a.cause})",
+                )
+            )
+        for robot, kind in obs.recoveries:
+            self.event(Event(obs.step, robot, "recover", kind))
+
+    def step(
+        self,
+        obs: TeamObservation,
+        out: TeamStep,
+        applied: np.ndarray,
+        truth: np.ndarray,
+        team: Team,
+    ) -> None:
+        k = obs.step
+        belief = team.belief
+        for e in out.events:
+            self.event(e)
+        for robot, z in belief.learned:
+            self.event(Event(k, robot, "zone_learned", f"{z.key} {z.kind} via {z.source}"))
+            self.knowledge.append(
+                {
+                    "step": k,
+                    "robot": robot,
+                    "zone": z.zone_id if z.zone_id is not None else -1,
+                    "kind": z.kind,
+                    "source": z.source,
+                    "x": z.mean[0],
+                    "y": z.mean[1],
+                    "sigma_xx": z.cov[0, 0],
+                    "sigma_xy": z.cov[0, 1],
+                    "sigma_yy": z.cov[1, 1],
+                    "size": z.size,
+                }
+            )
+        est = belief.team_estimate()
+        plans = out.decision.plans
+        self.team.append(
+            {
+                "step": k,
+                "time": obs.time,
+                "mse": mse(est.mean[:, :2], truth[:, :2]),
+                "trace": est.position_trace(),
+                "effort": effort(applied),
+                "n_sensing_failed": int((~obs.sensing_ok).sum()),
+                "n_comm_failed": int((~obs.comm_ok).sum()),
+                "n_leagues": len(belief.leagues),
+                "plan_ms": out.decision.plan_ms,
+                "n_solves": len(plans),
+                "n_solver_failures": sum(not p.success for p in plans),
+                "solver_iterations": sum(p.iterations for p in plans),
+            }
+        )
+        for i in range(obs.n_robots):
+            self.robots.append(
+                {
+                    "step": k,
+                    "robot": i,
+                    "x": obs.positions[i, 0],
+                    "y": obs.positions[i, 1],
+                    "ux": applied[i, 0],
+                    "uy": applied[i, 1],
+                    "sensing_ok": bool(obs.sensing_ok[i]),
+                    "comm_ok": bool(obs.comm_ok[i]),
+                    "league": int(belief.league_of[i]),
+                    "mode": out.decision.modes[i],
+                }
+            )
+        var = np.diagonal(est.cov, axis1=1, axis2=2)
+        for j in range(len(truth)):
+            self.targets.append(
+                {
+                    "step": k,
+                    "target": j,
+                    "x": truth[j, 0],
+                    "y": truth[j, 1],
+                    "est_x": est.mean[j, 0],
+                    "est_y": est.mean[j, 1],
+                    "var_x": var[j, 0],
+                    "var_y": var[j, 1],
+                }
+            )
+
+    def result(self, manifest: dict[str, Any]) -> EpisodeResult:
+        tables = {
+            "team": frame(self.team, "team"),
+            "robots": frame(self.robots, "robots"),
+            "targets": frame(self.targets, "targets"),
+            "events": frame(self.events, "events"),
+            "zones": frame(self.zones, "zones"),
+            "knowledge": frame(self.knowledge, "knowledge"),
+        }
+        return EpisodeResult(tables=tables, manifest=manifest)
+
+
+def run_episode(
+    scenario: Scenario,
+    policy: str | None = None,
+    seed: int | None = None,
+    progress: Callable[[int], object] | None = None,
+) -> EpisodeResult:
+    """Run one episode; ``progress`` is called with the number of steps done."""
+    seed = scenario.seed if seed is None else seed
+    policy_name = policy or scenario.policy.name
+    started = time.perf_counter()
+    world = World(scenario, seed)
+    config = TeamConfig.from_scenario(scenario)
+    team = Team(make_policy(policy_name, scenario, config), initial_estimate(scenario, world, seed))
+    recorder = _Recorder(world)
+    for _ in range(scenario.steps):
+        obs = world.observe()
+        truth = world.target_states
+        out = team.step(obs)
+        applied = world.step(out.controls)
+        recorder.observation(obs)
+        recorder.step(obs, out, applied, truth, team)
+        if progress is not None:
+            progress(1)
+    wall = time.perf_counter() - started
+    log.info(
+        "episode %s/%s seed %d: %d steps in %.2f s",
+        scenario.name,
+        policy_name,
+        seed,
+        scenario.steps,
+        wall,
+    )
+    manifest = {
+        "scenario": scenario.model_dump(mode="json"),
+        "seed": seed,
+        "policy": policy_name,
+        "version": __version__,
+        "casadi": casadi.CasadiMeta.version(),
+        "numpy": np.__version__,
+        "python": platform.python_version(),
+        "steps": scenario.steps,
+        "wall_time_s": round(wall, 3),
+    }
+    return recorder.result(manifest)

@@ -1,0 +1,15 @@
+"""Per-step metrics of SPEC §6: MSE, covariance trace, control effort."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def mse(estimated_positions: np.ndarray, true_positions: np.ndarray) -> float:
+    """``(1/N) Σ_j ‖ŷ_j − y_j‖²`` over target positions (N, 2)."""
+    return float(np.mean(np.sum((estimated_positions - true_positions) ** 2, axis=1)))
+
+
+def effort(controls: np.ndarray) -> float:
+    """``Σ_i ‖u_i‖`` of the applied velocities (M, 2)."""
+    return float(np.linalg.norm(controls, axis=1).sum())

@@ -1,0 +1,58 @@
+"""What a team knows about itself: time step, velocity bounds, workspace, its sensor model."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class TeamConfig:
+    dt: float
+    u_max: np.ndarray  # (M,)
+    lower: np.ndarray  # (2,) workspace corner
+    upper: np.ndarray  # (2,)
+    sensor: RangeBearingSensor
+    target_model: NearlyConstantVelocity
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.u_max)
+
+    @property
+    def sensor_params(self) -> np.ndarray:
+        s = self.sensor
+        return np.array([s.range_peak, s.range_shape, s.bearing_peak, s.bearing_shape])
+
+    def velocity_bounds(
+        self, robots: list[int], positions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per-axis bounds on ``u`` that respect ``u_max`` and keep ``x + u dt`` in the box."""
+        umax = self.u_max[robots][:, None]
+        x = positions[robots]
+        lower = np.minimum(np.maximum(-umax, (self.lower - x) / self.dt), 0.0)
+        upper = np.maximum(np.minimum(umax, (self.upper - x) / self.dt), 0.0)
+        return lower, upper
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario) -> TeamConfig:
+        s = scenario.sensor
+        return cls(
+            dt=scenario.dt,
+            u_max=np.array([r.u_max for r in scenario.robots], dtype=float),
+            lower=scenario.workspace.lower,
+            upper=scenario.workspace.upper,
+            sensor=RangeBearingSensor(
+                range_peak=s.range.peak,
+                range_shape=s.range.shape,
+                bearing_peak=s.bearing.peak,
+                bearing_shape=s.bearing.shape,
+                max_range=s.max_range,
+            ),
+            target_model=NearlyConstantVelocity(scenario.dt, scenario.estimator.accel_std),
+        )

@@ -1,0 +1,190 @@
+"""The world: truth of robots, targets, zones, failures and links, advanced one step at a time.
+
+Per step (``World.step``): robots move with clipped velocities, targets move, every zone draws an
+attack for every robot at its new position, temporary failures recover outside the zone's
+influence region, and links are recomputed. ``World.observe`` gives the robots what they can
+know: measurements, their own failures, attack clues and link states.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from resilient_tracking.observation import Attack, FailureKind, TeamObservation
+from resilient_tracking.rng import stream
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.team_config import TeamConfig
+from resilient_tracking.world.links import jammed_by, link_matrix
+from resilient_tracking.world.targets import TargetTruth
+from resilient_tracking.world.zones import TrueZone
+
+
+@dataclass
+class Failure:
+    """An active failure of one capability of one robot."""
+
+    persistence: str  # "temporary" | "permanent"
+    zone_id: int
+    since_step: int
+    cause: str = "hazard"  # "hazard" | "jamming"
+
+
+class World:
+    """Ground truth of one episode. Only the simulator holds it."""
+
+    def __init__(self, scenario: Scenario, seed: int):
+        self.scenario = scenario
+        self.dt = scenario.dt
+        self.step_index = 0
+        self.sensor = TeamConfig.from_scenario(scenario).sensor
+        self._rng_attacks = stream(seed, "attacks")
+        self._rng_measurements = stream(seed, "measurements")
+        self._rng_targets = stream(seed, "target_motion")
+        centers_rng = stream(seed, "zone_centers")
+        self.zones = [TrueZone(k, spec, centers_rng) for k, spec in enumerate(scenario.zones)]
+        self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
+        self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
+        self.targets = [TargetTruth(t) for t in scenario.targets]
+        m = len(scenario.robots)
+        self.failures: dict[FailureKind, list[Failure | None]] = {
+            "sensing": [None] * m,
+            "comm": [None] * m,
+        }
+        self._pending_attacks: list[Attack] = []
+        self._pending_recoveries: list[tuple[int, FailureKind]] = []
+        self._comm_zones = [z for z in self.zones if z.kind == "comm"]
+        self.links = self._compute_links()
+
+    # ------------------------------------------------------------------ read-only truth
+
+    @property
+    def time(self) -> float:
+        return self.step_index * self.dt
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.robot_positions)
+
+    @property
+    def target_states(self) -> np.ndarray:
+        """(N, 4) true ``[px, py, vx, vy]``."""
+        return np.array([t.state for t in self.targets])
+
+    def capability_ok(self, kind: FailureKind) -> np.ndarray:
+        return np.array([f is None for f in self.failures[kind]])
+
+    def persistence(self, kind: FailureKind) -> tuple[str, ...]:
+        return tuple("" if f is None else f.persistence for f in self.failures[kind])
+
+    # ------------------------------------------------------------------ observation
+
+    def observe(self) -> TeamObservation:
+        """Measurements and self-knowledge at the current step; clears pending events."""
+        positions = self.robot_positions
+        targets = np.array([t.position for t in self.targets])
+        # Draw noise for every pair every step so the stream stays aligned across policies.
+        m, n = len(positions), len(targets)
+        clean = self.sensor.predict(positions[:, None, :], targets[None, :, :])
+        std = np.sqrt(self.sensor.noise_variance(clean[..., 0]))
+        noise = self._rng_measurements.standard_normal((m, n, 2))
+        z = clean + std * noise
+        z[..., 1] = (z[..., 1] + np.pi) % (2 * np.pi) - np.pi
+        sensing_ok = self.capability_ok("sensing")
+        measured = sensing_ok[:, None] & self.sensor.in_range(clean[..., 0])
+        z[~measured] = np.nan
+        obs = TeamObservation(
+            step=self.step_index,
+            time=self.time,
+            positions=positions.copy(),
+            measurements=z,
+            sensing_ok=sensing_ok,
+            comm_ok=self.capability_ok("comm"),
+            sensing_persistence=self.persistence("sensing"),
+            comm_persistence=self.persistence("comm"),
+            links=self.links.copy(),
+            attacks=tuple(self._pending_attacks),
+            recoveries=tuple(self._pending_recoveries),
+        )
+        self._pending_attacks = []
+        self._pending_recoveries = []
+        return obs
+
+    # ------------------------------------------------------------------ dynamics
+
+    def clip_controls(self, controls: np.ndarray) -> np.ndarray:
+        """Velocity bounds per component, then keep the next position inside the workspace."""
+        u = np.clip(np.nan_to_num(controls, nan=0.0), -self.u_max[:, None], self.u_max[:, None])
+        ws = self.scenario.workspace
+        nxt = np.clip(self.robot_positions + u * self.dt, ws.lower, ws.upper)
+        return (nxt - self.robot_positions) / self.dt
+
+    def step(self, controls: np.ndarray) -> np.ndarray:
+        """Advance one step with velocity ``controls`` (M, 2); returns the controls applied."""
+        u = self.clip_controls(np.asarray(controls, dtype=float))
+        self.robot_positions = self.robot_positions + u * self.dt
+        for target in self.targets:
+            target.step(self.dt, self._rng_targets)
+        self.step_index += 1
+        self._draw_attacks()
+        self._recover()
+        self.links = self._compute_links()
+        return u
+
+    def _draw_attacks(self) -> None:
+        # One uniform per (zone, robot) every step, whatever the state: common random numbers.
+        draws = self._rng_attacks.random((len(self.zones), self.n_robots))
+        for zone, row in zip(self.zones, draws, strict=True):
+            p = zone.hazard.probability(self.robot_positions, self.step_index, self.dt)
+            for robot in np.flatnonzero(row < p):
+                self._fail(int(robot), zone, "hazard")
+
+    def _fail(self, robot: int, zone: TrueZone, cause: str) -> None:
+        kind: FailureKind = "sensing" if zone.kind == "sensing" else "comm"
+        current = self.failures[kind][robot]
+        persistence = zone.spec.persistence if cause == "hazard" else "temporary"
+        if current is not None and (
+            current.persistence == "permanent" or persistence == "temporary"
+        ):
+            return  # already failed; a temporary hit on a failed capability changes nothing
+        self.failures[kind][robot] = Failure(persistence, zone.id, self.step_index, cause)
+        self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(), cause=cause))  # type: ignore[arg-type]
+
+    def _recover(self) -> None:
+        for kind in ("sensing", "comm"):
+            for robot, failure in enumerate(self.failures[kind]):  # type: ignore[index]
+                if failure is None or failure.persistence == "permanent":
+                    continue
+                if failure.cause == "jamming":
+                    continue  # jamming isolation ends with the geometry, in _compute_links
+                if failure.since_step >= self.step_index:
+                    continue  # lasts at least one step
+                zone = self.zones[failure.zone_id]
+                if not zone.in_influence(self.robot_positions[robot]):
+                    self.failures[kind][robot] = None  # type: ignore[index]
+                    self._pending_recoveries.append((robot, kind))  # type: ignore[arg-type]
+
+    def _compute_links(self) -> np.ndarray:
+        """Links now, and jamming isolation: a robot whose every possible link is jammed."""
+        positions = self.robot_positions
+        centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
+        deltas = np.array([z.size for z in self._comm_zones], dtype=float)
+        jammed = jammed_by(positions, centers, deltas)
+        radio = np.array(
+            [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
+        )
+        possible = link_matrix(
+            positions, radio, np.zeros((0,) + jammed.shape[1:], bool), self.scenario.comm_range
+        )
+        links = possible & ~jammed.any(axis=0) if jammed.size else possible
+        for robot in range(self.n_robots):
+            failure = self.failures["comm"][robot]
+            isolated = bool(possible[robot].any()) and not bool(links[robot].any())
+            if isolated and failure is None:
+                worst = int(np.argmax(jammed[:, robot, :].sum(axis=1)))
+                self._fail(robot, self._comm_zones[worst], "jamming")
+            elif not isolated and failure is not None and failure.cause == "jamming":
+                self.failures["comm"][robot] = None
+                self._pending_recoveries.append((robot, "comm"))
+        return links
