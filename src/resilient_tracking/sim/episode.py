@@ -52,6 +52,7 @@ class _Recorder:
         self.targets: list[dict[str, Any]] = []
         self.events: list[dict[str, Any]] = []
         self.knowledge: list[dict[str, Any]] = []
+        self.timing: list[dict[str, Any]] = []
         self.zones = [
             {
                 "zone": z.id,
@@ -128,12 +129,12 @@ class _Recorder:
                 "n_sensing_failed": int((~obs.sensing_ok).sum()),
                 "n_comm_failed": int((~obs.comm_ok).sum()),
                 "n_leagues": len(belief.leagues),
-                "plan_ms": out.decision.plan_ms,
                 "n_solves": len(plans),
                 "n_solver_failures": sum(not p.success for p in plans),
                 "solver_iterations": sum(p.iterations for p in plans),
             }
         )
+        self.timing.append({"step": k, "plan_ms": out.decision.plan_ms})
         for i in range(obs.n_robots):
             self.robots.append(
                 {
@@ -172,6 +173,7 @@ class _Recorder:
             "events": frame(self.events, "events"),
             "zones": frame(self.zones, "zones"),
             "knowledge": frame(self.knowledge, "knowledge"),
+            "timing": frame(self.timing, "timing"),
         }
         return EpisodeResult(tables=tables, manifest=manifest)
 

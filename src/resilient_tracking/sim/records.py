@@ -2,7 +2,8 @@
 
 A run folder holds ``team.parquet`` (a row per step), ``robots.parquet`` (a row per robot per
 step), ``targets.parquet``, ``events.parquet``, ``zones.parquet`` (truth, for plots only),
-``knowledge.parquet`` (zone estimates as robots learn them) and ``manifest.json``. Files are
+``knowledge.parquet`` (zone estimates as robots learn them), ``timing.parquet`` (planning
+wall time per step; the only table that is not reproducible bit for bit) and ``manifest.json``. Files are
 written to a temporary name and renamed, so a file is either complete or absent.
 """
 
@@ -17,7 +18,10 @@ from typing import Any
 
 import pandas as pd
 
+#: Tables that are identical, bit for bit, for the same scenario and seed.
 TABLES = ("team", "robots", "targets", "events", "zones", "knowledge")
+#: Wall-clock measurements: the one table that differs between identical runs.
+TIMING = "timing"
 
 COLUMNS: dict[str, list[str]] = {
     "events": ["step", "robot", "event", "detail"],
@@ -70,7 +74,7 @@ def write_run(result: EpisodeResult, out_dir: str | Path) -> Path:
     """Write every table and the manifest into ``out_dir`` (created if needed)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    for name in TABLES:
+    for name in (*TABLES, TIMING):
         table = result.tables[name]
         _atomic_write(out / f"{name}.parquet", lambda p, t=table: t.to_parquet(p, index=False))
     text = json.dumps(result.manifest, indent=2, sort_keys=True, default=str)
@@ -78,5 +82,3 @@ def write_run(result: EpisodeResult, out_dir: str | Path) -> Path:
     return out
 
 
-def read_table(run_dir: str | Path, name: str) -> pd.DataFrame:
-    return pd.read_parquet(Path(run_dir) / f"{name}.parquet")

@@ -1,0 +1,232 @@
+"""Reading a saved run folder: the single place where figures read parquet.
+
+A run folder holds ``team``, ``robots``, ``targets``, ``events``, ``zones`` and ``knowledge``
+tables (parquet) plus ``manifest.json``. :func:`load_run` reads them into a :class:`RunData`,
+checking that every table has the columns the plots use, so that a malformed folder fails with
+an error naming the table and the missing columns instead of a ``KeyError`` deep in a plot.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+logger = logging.getLogger(__name__)
+
+#: Columns each table must have (extra columns are kept and ignored).
+REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
+    "team": (
+        "step",
+        "time",
+        "mse",
+        "trace",
+        "effort",
+        "n_sensing_failed",
+        "n_comm_failed",
+    ),
+    "robots": ("step", "robot", "x", "y", "sensing_ok", "comm_ok"),
+    "targets": ("step", "target", "x", "y", "est_x", "est_y"),
+    "events": ("step", "robot", "event", "detail"),
+    "zones": (
+        "zone",
+        "kind",
+        "mu_x",
+        "mu_y",
+        "sigma_xx",
+        "sigma_xy",
+        "sigma_yy",
+        "size",
+        "true_x",
+        "true_y",
+    ),
+    "knowledge": (
+        "step",
+        "robot",
+        "zone",
+        "kind",
+        "x",
+        "y",
+        "sigma_xx",
+        "sigma_xy",
+        "sigma_yy",
+        "size",
+    ),
+}
+
+#: Tables that may be absent from the folder (read as empty).
+OPTIONAL_TABLES = frozenset({"events", "knowledge"})
+
+
+@dataclass(frozen=True)
+class RunData:
+    """Everything a figure may use from one run folder."""
+
+    run_dir: Path
+    team: pd.DataFrame
+    robots: pd.DataFrame
+    targets: pd.DataFrame
+    events: pd.DataFrame
+    zones: pd.DataFrame
+    knowledge: pd.DataFrame
+    manifest: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def scenario(self) -> dict[str, Any]:
+        scenario = self.manifest.get("scenario", {})
+        return scenario if isinstance(scenario, dict) else {}
+
+    @property
+    def scenario_name(self) -> str:
+        return str(self.scenario.get("name", self.run_dir.name))
+
+    @property
+    def policy(self) -> str:
+        return str(self.manifest.get("policy", "?"))
+
+    @property
+    def seed(self) -> int | None:
+        seed = self.manifest.get("seed")
+        return int(seed) if seed is not None else None
+
+    @property
+    def dt(self) -> float:
+        """Time step (s) from the manifest, else inferred from the team table, else 0.1."""
+        dt = self.scenario.get("dt")
+        if dt is not None:
+            return float(dt)
+        if len(self.team) >= 2:
+            steps = self.team["step"].to_numpy(dtype=float)
+            times = self.team["time"].to_numpy(dtype=float)
+            span = steps[-1] - steps[0]
+            if span > 0:
+                return float((times[-1] - times[0]) / span)
+        return 0.1
+
+    @property
+    def workspace(self) -> tuple[float, float, float, float] | None:
+        """``(xmin, xmax, ymin, ymax)`` from the manifest, or ``None`` when not recorded."""
+        ws = self.scenario.get("workspace")
+        if not isinstance(ws, dict):
+            return None
+        try:
+            return (float(ws["xmin"]), float(ws["xmax"]), float(ws["ymin"]), float(ws["ymax"]))
+        except (KeyError, TypeError, ValueError):
+            logger.warning("manifest workspace %r is malformed; ignoring it", ws)
+            return None
+
+    @property
+    def last_step(self) -> int:
+        frames = [df["step"] for df in (self.team, self.robots, self.targets) if len(df)]
+        return int(max(int(s.max()) for s in frames)) if frames else 0
+
+    def title(self) -> str:
+        """``"<scenario> · <policy> · seed <n>"``."""
+        seed = "?" if self.seed is None else str(self.seed)
+        return f"{self.scenario_name} · {self.policy} · seed {seed}"
+
+    def times_of(self, steps: Any) -> np.ndarray:
+        """Times (s) of ``steps``: from the team table where recorded, else ``step · dt``."""
+        steps_arr = np.asarray(steps, dtype=float)
+        fallback = steps_arr * self.dt
+        if self.team.empty:
+            return fallback
+        lookup = pd.Series(
+            self.team["time"].to_numpy(dtype=float),
+            index=self.team["step"].to_numpy(dtype=float),
+        )
+        lookup = lookup[~lookup.index.duplicated(keep="last")]
+        found = lookup.reindex(steps_arr.ravel()).to_numpy(dtype=float).reshape(steps_arr.shape)
+        return np.where(np.isnan(found), fallback, found)
+
+
+def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
+    path = run_dir / f"{name}.parquet"
+    required = REQUIRED_COLUMNS[name]
+    if not path.exists():
+        if name in OPTIONAL_TABLES:
+            logger.info("%s not found in %s; using an empty table", path.name, run_dir)
+            return pd.DataFrame({c: pd.Series(dtype=object) for c in required})
+        raise FileNotFoundError(f"run folder {run_dir} has no {path.name}")
+    df = pd.read_parquet(path)
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        if df.empty:
+            # An empty table written without a schema: give it the expected columns.
+            for c in missing:
+                df[c] = pd.Series(dtype=object)
+        else:
+            raise ValueError(f"{path}: missing columns {missing} (has {list(df.columns)})")
+    if "step" in df.columns and not df.empty:
+        df = df.sort_values("step", kind="stable").reset_index(drop=True)
+    return df
+
+
+def load_run(run_dir: str | Path) -> RunData:
+    """Read a run folder's tables and manifest.
+
+    Raises ``FileNotFoundError`` when the folder, ``manifest.json`` or a required table is
+    missing, and ``ValueError`` when a non-empty table lacks a column the figures use.
+    ``events`` and ``knowledge`` may be absent or empty.
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise FileNotFoundError(f"run folder {run_dir} does not exist")
+    manifest_path = run_dir / "manifest.json"
+    if not manifest_path.exists():
+        raise FileNotFoundError(f"run folder {run_dir} has no manifest.json")
+    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+    if not isinstance(manifest, dict):
+        raise ValueError(f"{manifest_path}: expected a JSON object, got {type(manifest).__name__}")
+    tables = {name: _read_table(run_dir, name) for name in REQUIRED_COLUMNS}
+    logger.debug(
+        "loaded run %s: %s",
+        run_dir,
+        ", ".join(f"{k}={len(v)} rows" for k, v in tables.items()),
+    )
+    return RunData(run_dir=run_dir, manifest=manifest, **tables)
+
+
+def attack_kind(detail: object) -> str:
+    """Failure kind of an attack event from its ``detail`` ("sensing ..." / "comm ...")."""
+    word = str(detail).strip().split(maxsplit=1)[0].lower() if detail else ""
+    if word.startswith("sens"):
+        return "sensing"
+    if word.startswith("comm"):
+        return "comm"
+    return "other"
+
+
+def attack_table(run: RunData, until_step: int | None = None) -> pd.DataFrame:
+    """Attack events with their kind and the attacked robot's position at that step.
+
+    Columns ``step, robot, kind, x, y`` (``x, y`` are NaN when the robot's row is missing,
+    e.g. for team-level rows with ``robot == -1``), restricted to ``step <= until_step``.
+    """
+    ev = run.events
+    ev = ev[ev["event"] == "attack"]
+    if until_step is not None:
+        ev = ev[ev["step"] <= until_step]
+    out = pd.DataFrame(
+        {
+            "step": ev["step"].to_numpy(dtype=np.int64),
+            "robot": ev["robot"].to_numpy(dtype=np.int64),
+            "kind": [attack_kind(d) for d in ev["detail"]],
+        }
+    )
+    if out.empty or run.robots.empty:
+        out["x"] = np.nan
+        out["y"] = np.nan
+        return out
+    pos = run.robots[["step", "robot", "x", "y"]].astype({"step": np.int64, "robot": np.int64})
+    pos = pos.drop_duplicates(["step", "robot"], keep="last")
+    out = out.merge(pos, on=["step", "robot"], how="left")
+    n_missing = int(out["x"].isna().sum())
+    if n_missing:
+        logger.debug("%d attack event(s) have no robot position; not drawn on maps", n_missing)
+    return out

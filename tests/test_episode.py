@@ -1,0 +1,69 @@
+"""End-to-end behaviour of episodes: determinism, records, the vanilla team's failure mode."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import shipped
+
+from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.records import TABLES, write_run
+
+
+def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
+    scenario = shipped("sensing-temp").with_overrides(steps=60)
+    a = run_episode(scenario, seed=3)
+    b = run_episode(scenario, seed=3)
+    c = run_episode(scenario, seed=4)
+    for name in TABLES:
+        pd.testing.assert_frame_equal(a[name], b[name])
+    assert not np.allclose(a["zones"]["true_x"], c["zones"]["true_x"])
+    # written files read back identical too
+    write_run(a, tmp_path / "a")
+    write_run(b, tmp_path / "b")
+    for name in TABLES:
+        pd.testing.assert_frame_equal(
+            pd.read_parquet(tmp_path / "a" / f"{name}.parquet"),
+            pd.read_parquet(tmp_path / "b" / f"{name}.parquet"),
+        )
+
+
+def test_records_have_the_documented_shape():
+    scenario = shipped("comm-temp").with_overrides(steps=40)
+    result = run_episode(scenario, seed=1)
+    team, robots, targets = result["team"], result["robots"], result["targets"]
+    assert list(team["step"]) == list(range(40))
+    for column in ("step", "time", "mse", "trace", "effort", "n_sensing_failed",
+                   "n_comm_failed", "n_leagues"):
+        assert column in team.columns
+    assert len(robots) == 40 * 3 and len(targets) == 40 * 3
+    for column in ("step", "robot", "x", "y", "ux", "uy", "sensing_ok", "comm_ok", "league",
+                   "mode"):
+        assert column in robots.columns
+    assert np.isfinite(team[["mse", "trace", "effort"]].to_numpy()).all()
+    # applied velocities respect the bounds, positions follow x+ = x + u dt
+    assert (robots[["ux", "uy"]].abs() <= 1.0 + 1e-9).all().all()
+    r0 = robots[robots.robot == 0].sort_values("step")
+    np.testing.assert_allclose(
+        r0["x"].to_numpy()[1:], r0["x"].to_numpy()[:-1] + 0.1 * r0["ux"].to_numpy()[:-1]
+    )
+    # effort is Σ‖u‖ of the applied velocities
+    per_step = robots.assign(n=np.hypot(robots.ux, robots.uy)).groupby("step")["n"].sum()
+    np.testing.assert_allclose(team.set_index("step")["effort"], per_step)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_vanilla_in_sensing_perm_every_robot_attacked_then_trace_explodes(seed):
+    """SPEC §6 / paper Fig. 4: the vanilla team is immobilised and its trace explodes."""
+    result = run_episode(shipped("sensing-perm"), policy="vanilla", seed=seed)
+    events, team, robots = result["events"], result["team"], result["robots"]
+    attacks = events[events.event == "attack"]
+    assert sorted(attacks.robot.unique()) == [0, 1, 2]
+    last = int(attacks.step.max())
+    after = team[team.step >= last]["trace"].to_numpy()
+    assert after[-1] > 100 * after[0]
+    assert np.all(np.diff(after[5:]) > 0)  # keeps rising
+    still = robots[robots.step > last]
+    assert (still[["ux", "uy"]].abs().max() < 1e-9).all()  # immobilised
+    assert set(still["mode"]) == {"idle"}
