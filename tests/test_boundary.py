@@ -7,9 +7,9 @@ import inspect
 from pathlib import Path
 
 import numpy as np
-from conftest import shipped
 
 import resilient_tracking
+from conftest import shipped
 from resilient_tracking.sim.episode import run_episode
 
 PACKAGE = Path(resilient_tracking.__file__).parent
@@ -36,7 +36,8 @@ def belief_side_files() -> list[Path]:
 def test_belief_side_never_imports_world_or_sim():
     offenders = {
         str(p.relative_to(PACKAGE)): sorted(
-            m for m in imported_modules(p)
+            m
+            for m in imported_modules(p)
             if m.startswith(("resilient_tracking.world", "resilient_tracking.sim"))
         )
         for p in belief_side_files()

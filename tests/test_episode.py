@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import shipped
 
+from conftest import shipped
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import TABLES, write_run
 
@@ -34,12 +34,30 @@ def test_records_have_the_documented_shape():
     result = run_episode(scenario, seed=1)
     team, robots, targets = result["team"], result["robots"], result["targets"]
     assert list(team["step"]) == list(range(40))
-    for column in ("step", "time", "mse", "trace", "effort", "n_sensing_failed",
-                   "n_comm_failed", "n_leagues"):
+    for column in (
+        "step",
+        "time",
+        "mse",
+        "trace",
+        "effort",
+        "n_sensing_failed",
+        "n_comm_failed",
+        "n_leagues",
+    ):
         assert column in team.columns
     assert len(robots) == 40 * 3 and len(targets) == 40 * 3
-    for column in ("step", "robot", "x", "y", "ux", "uy", "sensing_ok", "comm_ok", "league",
-                   "mode"):
+    for column in (
+        "step",
+        "robot",
+        "x",
+        "y",
+        "ux",
+        "uy",
+        "sensing_ok",
+        "comm_ok",
+        "league",
+        "mode",
+    ):
         assert column in robots.columns
     assert np.isfinite(team[["mse", "trace", "effort"]].to_numpy()).all()
     # applied velocities respect the bounds, positions follow x+ = x + u dt

@@ -2,9 +2,9 @@
 
 A run folder holds ``team.parquet`` (a row per step), ``robots.parquet`` (a row per robot per
 step), ``targets.parquet``, ``events.parquet``, ``zones.parquet`` (truth, for plots only),
-``knowledge.parquet`` (zone estimates as robots learn them), ``timing.parquet`` (planning
-wall time per step; the only table that is not reproducible bit for bit) and ``manifest.json``. Files are
-written to a temporary name and renamed, so a file is either complete or absent.
+``knowledge.parquet`` (zone estimates as robots learn them), ``timing.parquet`` (planning wall
+time per step, the one table that is not reproducible bit for bit) and ``manifest.json``.
+Files are written to a temporary name and renamed, so a file is either complete or absent.
 """
 
 from __future__ import annotations
@@ -80,5 +80,3 @@ def write_run(result: EpisodeResult, out_dir: str | Path) -> Path:
     text = json.dumps(result.manifest, indent=2, sort_keys=True, default=str)
     _atomic_write(out / "manifest.json", lambda p: Path(p).write_text(text + "\n"))
     return out
-
-

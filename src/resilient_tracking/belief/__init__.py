@@ -1,0 +1,1 @@
+"""Belief: what robots know — target estimates, zone knowledge, leagues. Never imports ``world``."""

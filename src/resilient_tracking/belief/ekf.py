@@ -1,0 +1,161 @@
+"""Extended Kalman filter over independent targets with range-bearing measurements (SPEC §3).
+
+Prediction (paper, EKF prediction eq.): ``ŷ⁺ = A ŷ``, ``P⁺ = A P Aᵀ + Q`` per target.
+
+Update (paper eqs. ``state_update`` / ``cov_inv_update``): all robots' measurements of a target are
+stacked and linearised at the *predicted* target position, giving
+
+    P⁻¹_{t+1|t+1} = P⁻¹_{t+1|t} + Σ_k H_kᵀ R_k⁻¹ H_k,
+    ŷ_{t+1|t+1}   = ŷ_{t+1|t} + K z̃,   K z̃ = P_{t+1|t+1} Σ_k H_kᵀ R_k⁻¹ z̃_k,
+
+with ``H_k`` the 2×4 Jacobian (position columns from the sensor, zero velocity columns),
+``R_k = diag(R(d̂_k))`` from the *predicted* distance (the filter never sees the true one) and the
+bearing innovation wrapped to [−π, π). The information sum is evaluated in the equivalent
+gain form (``P`` is never inverted) and the covariance in Joseph form, so it stays
+symmetric positive definite. Everything is vectorised over robots × targets.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.models.sensor import MIN_RANGE, RangeBearingSensor, wrap_angle
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class EkfUpdate:
+    """Result of one update with consistency diagnostics.
+
+    ``nis[k, j]``: normalized innovation squared ``ν_kjᵀ S_kj⁻¹ ν_kj`` of robot ``k``'s measurement
+    of target ``j`` alone against the prior (χ²(2) if consistent), NaN where not measured.
+    ``joint_nis[j]``: NIS of all measurements of target ``j`` stacked (χ²(``dof[j]``) if
+    consistent), NaN where ``dof[j] == 0``. ``dof[j] = 2 ·`` number of robots that measured ``j``.
+    """
+
+    estimate: TargetEstimate
+    nis: FloatArray
+    joint_nis: FloatArray
+    dof: NDArray[np.int64]
+
+
+def measurement_jacobians(robots: FloatArray, positions: FloatArray) -> FloatArray:
+    """Batched range-bearing Jacobians wrt target position, ``(K, N, 2, 2)``.
+
+    Same formula (and the same ``MIN_RANGE`` clamp) as ``RangeBearingSensor.jacobian``.
+    """
+    pos = np.asarray(positions, dtype=float)
+    delta = pos[None, :, :] - np.asarray(robots, dtype=float)[:, None, :]
+    dx, dy = delta[..., 0], delta[..., 1]
+    d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
+    d = np.sqrt(d2)
+    row_range = np.stack([dx / d, dy / d], axis=-1)
+    row_bearing = np.stack([-dy / d2, dx / d2], axis=-1)
+    return np.stack([row_range, row_bearing], axis=-2)
+
+
+class ExtendedKalmanFilter:
+    """EKF for ``N`` independent NCV targets observed by ``K`` range-bearing robots."""
+
+    def __init__(self, model: NearlyConstantVelocity, sensor: RangeBearingSensor) -> None:
+        self.model = model
+        self.sensor = sensor
+        self._a = model.transition
+        self._q = model.process_noise
+
+    def predict(self, est: TargetEstimate) -> TargetEstimate:
+        """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object)."""
+        a = self._a
+        mean = est.mean @ a.T
+        cov = np.einsum("ij,njk,lk->nil", a, est.cov, a) + self._q
+        return TargetEstimate(mean, _symmetrize(cov))
+
+    def update(
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        nis_out: list[float] | None = None,
+    ) -> TargetEstimate:
+        """Measurement update (eqs. ``state_update``, ``cov_inv_update``); returns a new object.
+
+        ``robot_positions`` ``(K, 2)``, ``measurements`` ``(K, N, 2)`` ``[range, bearing]``, NaN
+        where robot ``k`` did not measure target ``j`` (skipped). If ``nis_out`` is given, the
+        per-(robot, target) NIS of the measurements used are appended to it, robot-major.
+        """
+        res = self.update_detailed(est, robot_positions, measurements)
+        if nis_out is not None:
+            nis_out.extend(res.nis[np.isfinite(res.nis)].tolist())
+        return res.estimate
+
+    def update_with_nis(
+        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+    ) -> tuple[TargetEstimate, FloatArray]:
+        """Like :meth:`update`, also returning the ``(K, N)`` per-measurement NIS (NaN if none)."""
+        res = self.update_detailed(est, robot_positions, measurements)
+        return res.estimate, res.nis
+
+    def update_detailed(
+        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+    ) -> EkfUpdate:
+        """Measurement update with all diagnostics (see :class:`EkfUpdate`)."""
+        n = est.n_targets
+        robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
+        k = robots.shape[0]
+        z = np.asarray(measurements, dtype=float)
+        if z.shape != (k, n, 2):
+            raise ValueError(f"measurements must have shape ({k}, {n}, 2), got {z.shape}")
+        if not np.all(np.isfinite(robots)):
+            raise ValueError("robot_positions must be finite")
+
+        mean, cov = est.mean, est.cov
+        pos = mean[:, :2]
+        h = self.sensor.predict(robots[:, None, :], pos[None, :, :])  # (K, N, 2)
+        hjac = measurement_jacobians(robots, pos)  # (K, N, 2, 2)
+        var = self.sensor.noise_variance(h[..., 0])  # R(d̂) at the predicted distance
+
+        valid = np.all(np.isfinite(z), axis=-1)  # (K, N)
+        innov = z - h
+        innov[..., 1] = wrap_angle(innov[..., 1])
+        innov = np.where(valid[..., None], innov, 0.0)
+        rinv = np.where(valid[..., None], 1.0 / var, 0.0)
+
+        # Information contributed to the position block: J = Σ_k Hᵀ R⁻¹ H, b = Σ_k Hᵀ R⁻¹ z̃.
+        info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
+        b = np.einsum("knai,kna,kna->ni", hjac, rinv, innov)
+
+        # With W = (I + J P_pp)⁻¹ (always invertible, J may be singular):
+        #   (P⁻¹ + Eᵀ J E)⁻¹ Eᵀ = P Eᵀ W =: F,  ŷ⁺ = ŷ + F b,  stacked gain K with K H = F J E.
+        # The covariance is then formed in Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, where
+        # K R Kᵀ = F J Fᵀ: a sum of congruences, so it stays positive definite numerically.
+        m = np.eye(2) + info @ cov[:, :2, :2]
+        f = np.swapaxes(np.linalg.solve(np.swapaxes(m, 1, 2), cov[:, :2, :]), 1, 2)  # (N, 4, 2)
+        new_mean = mean + (f @ b[..., None])[..., 0]
+        i_kh = np.eye(4) - np.concatenate([f @ info, np.zeros((n, 4, 2))], axis=2)
+        joseph = i_kh @ cov @ np.swapaxes(i_kh, 1, 2) + f @ info @ np.swapaxes(f, 1, 2)
+        new_cov = _symmetrize(joseph)
+
+        # Per-measurement NIS against the prior: S = H P_pp Hᵀ + R.
+        s = hjac @ cov[None, :, :2, :2] @ np.swapaxes(hjac, -1, -2)
+        s[..., 0, 0] += var[..., 0]
+        s[..., 1, 1] += var[..., 1]
+        nis = np.einsum("kna,kna->kn", innov, np.linalg.solve(s, innov[..., None])[..., 0])
+        nis = np.where(valid, nis, np.nan)
+
+        # Stacked NIS via Woodbury: z̃ᵀ S⁻¹ z̃ = Σ_k z̃_kᵀ R_k⁻¹ z̃_k − bᵀ P⁺_pp b.
+        dof = 2 * valid.sum(axis=0).astype(np.int64)
+        quad = np.einsum("kna,kna,kna->n", innov, rinv, innov)
+        joint = quad - np.einsum("ni,nij,nj->n", b, new_cov[:, :2, :2], b)
+        joint = np.where(dof > 0, joint, np.nan)
+
+        return EkfUpdate(TargetEstimate(new_mean, new_cov), nis, joint, dof)
+
+
+def _symmetrize(cov: FloatArray) -> FloatArray:
+    return np.asarray(0.5 * (cov + np.swapaxes(cov, -1, -2)), dtype=float)

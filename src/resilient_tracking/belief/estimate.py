@@ -1,0 +1,68 @@
+"""Per-target Gaussian estimates held by a league (SPEC §3).
+
+Targets are estimated independently, so the joint covariance is block diagonal and stored as one
+4×4 block per target; state per target ``[px, py, vx, vy]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+STATE_DIM = 4
+
+
+@dataclass
+class TargetEstimate:
+    """Means ``(N, 4)`` and covariances ``(N, 4, 4)`` of ``N`` independent targets."""
+
+    mean: FloatArray
+    cov: FloatArray
+
+    def __post_init__(self) -> None:
+        self.mean = np.asarray(self.mean, dtype=float)
+        self.cov = np.asarray(self.cov, dtype=float)
+        if self.mean.ndim != 2 or self.mean.shape[1] != STATE_DIM:
+            raise ValueError(f"TargetEstimate.mean must have shape (N, 4), got {self.mean.shape}")
+        n = self.mean.shape[0]
+        if self.cov.shape != (n, STATE_DIM, STATE_DIM):
+            raise ValueError(
+                f"TargetEstimate.cov must have shape ({n}, 4, 4), got {self.cov.shape}"
+            )
+
+    def copy(self) -> TargetEstimate:
+        """A deep copy (arrays are not shared)."""
+        return TargetEstimate(self.mean.copy(), self.cov.copy())
+
+    @property
+    def n_targets(self) -> int:
+        return int(self.mean.shape[0])
+
+    def position_traces(self) -> FloatArray:
+        """Per-target ``tr P_j[:2, :2]``, shape ``(N,)``."""
+        return np.asarray(self.cov[:, 0, 0] + self.cov[:, 1, 1], dtype=float)
+
+    def position_trace(self) -> float:
+        """``Σ_j tr P_j[:2, :2]`` — the tracking-error measure of the paper."""
+        return float(self.position_traces().sum())
+
+    @classmethod
+    def initial(cls, means: FloatArray, position_std: float, velocity_std: float) -> TargetEstimate:
+        """Estimate with the given means and diagonal covariance
+        ``diag(σ_p², σ_p², σ_v², σ_v²)`` for every target."""
+        if not (np.isfinite(position_std) and position_std > 0):
+            raise ValueError(f"position_std must be positive and finite, got {position_std}")
+        if not (np.isfinite(velocity_std) and velocity_std > 0):
+            raise ValueError(f"velocity_std must be positive and finite, got {velocity_std}")
+        m = np.array(means, dtype=float, copy=True)
+        if m.ndim != 2 or m.shape[1] != STATE_DIM:
+            raise ValueError(f"means must have shape (N, 4), got {m.shape}")
+        if not np.all(np.isfinite(m)):
+            raise ValueError("means must be finite")
+        block = np.diag([position_std**2, position_std**2, velocity_std**2, velocity_std**2])
+        cov = np.repeat(block[None, :, :], m.shape[0], axis=0)
+        return cls(m, cov)
