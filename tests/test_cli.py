@@ -68,7 +68,7 @@ def test_run_writes_tables_manifest_and_figures(tmp_path, capsys):
     for name in ("team", "robots", "targets", "events", "zones", "knowledge", "timing"):
         assert (out / f"{name}.parquet").exists()
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["seed"] == 2 and manifest["policy"] == "vanilla"
+    assert manifest["seed"] == 2 and manifest["policy"] == "failure_aware"
     assert manifest["scenario"]["steps"] == 30
     assert len(pd.read_parquet(out / "team.parquet")) == 30
     assert len(list((out / "figures").glob("*.png"))) >= 2

@@ -35,6 +35,8 @@ class ZoneEstimate:
     learned_step: int
     #: the zone's id when learned from an attack clue; None when inferred
     zone_id: int | None = None
+    #: extra stand-off (m) the planner keeps, e.g. the radius of an observed evasion circle
+    clearance: float = 0.0
 
     @classmethod
     def from_clue(cls, clue: ZoneClue, step: int) -> ZoneEstimate:

@@ -12,6 +12,7 @@ Each tick (SPEC §2–3):
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -124,7 +125,7 @@ class TeamBelief:
             for i in league:
                 for key, zone in merged.zones.items():
                     if key not in self.knowledge[i]:
-                        self.learned.append((i, zone))
+                        self.learned.append((i, replace(zone, source="broadcast")))
                 self.knowledge[i] = merged.copy()
 
     # ------------------------------------------------------------------ queries

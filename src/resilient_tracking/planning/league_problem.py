@@ -5,11 +5,13 @@ sensing zone and ``ξ_ik ≥ 0`` per known comm zone::
 
     min  w1 Σ_j tr P⁺_j(x⁺) + Σ_i [w2 ‖u_i‖² + w3 Σ_l ν_il + w4 Σ_k ξ_ik]
     s.t. ‖x_i⁺ − μ_S‖ − r_safe + ν_il ≥ β1 √(2 âᵀ Σ_S â)                  (eq. 7c)
-         ‖x_i⁺ − μ_C‖ − δ2 ‖x_i⁺ − x_j⁺‖ + ξ_ik ≥ β2 √(2 âᵀ Σ_C â)  ∀ j ≠ i  (eq. 7d)
+         ‖x_i⁺ − μ_C‖ − δ2 ‖x_i⁺ − x_j⁺‖ − c_k + ξ_ik ≥ β2 √(2 âᵀ Σ_C â)  ∀ j ≠ i  (eq. 7d)
 
 with ``x_i⁺ = x_i + u_i dt``, ``β = erfinv(1 − 2ε)`` and ``â`` the regularised unit vector from
-``x_i⁺`` to ``μ``. ``P⁺_j`` is the position block of the one-step EKF posterior: the predicted
-position information plus ``s_i Hᵀ R⁻¹ H`` of every robot (``s_i = 1`` when it can sense).
+``x_i⁺`` to ``μ``. ``c_k`` is an extra clearance (0 for a zone known from an attack clue; set
+for a zone inferred from a circling robot, whose ``δ2`` nobody saw). ``P⁺_j`` is the position
+block of the one-step EKF posterior: the predicted position information plus ``s_i Hᵀ R⁻¹ H``
+of every robot (``s_i = 1`` when it can sense).
 The velocity bounds and the workspace become simple bounds on ``u``.
 
 Everything that changes from step to step — positions, sensing mask, estimates, weights, zone
@@ -26,6 +28,10 @@ import numpy as np
 
 #: Distance regularisation (m) in the planner's information model and in â.
 PLAN_EPS = 0.05
+#: Columns of a sensing-zone row: mu(2), sigma xx/xy/yy, r_safe, beta1.
+SENSING_COLUMNS = 7
+#: Columns of a comm-zone row: mu(2), sigma xx/xy/yy, delta2, beta2, clearance.
+COMM_COLUMNS = 8
 
 
 @dataclass(frozen=True)
@@ -56,7 +62,7 @@ class ProblemInputs:
     u_lower: np.ndarray  # (n, 2)
     u_upper: np.ndarray  # (n, 2)
     sensing_zones: np.ndarray  # (L, 7): mu(2), sigma xx/xy/yy, r_safe, beta1
-    comm_zones: np.ndarray  # (K, 7): mu(2), sigma xx/xy/yy, delta2, beta2
+    comm_zones: np.ndarray  # (K, 8): mu(2), sigma xx/xy/yy, delta2, beta2, clearance
 
 
 def _unit_and_norm(v: ca.MX) -> tuple[ca.MX, ca.MX]:
@@ -99,8 +105,8 @@ class LeagueProblem:
         w = ca.MX.sym("w", 4)
         sensor = ca.MX.sym("sensor", 4)
         dt = ca.MX.sym("dt")
-        szones = ca.MX.sym("szones", 7, nl)
-        czones = ca.MX.sym("czones", 7, nk)
+        szones = ca.MX.sym("szones", SENSING_COLUMNS, nl)
+        czones = ca.MX.sym("czones", COMM_COLUMNS, nk)
         self._param_parts = [x0, sense, targets, prior, w, sensor, dt, szones, czones]
 
         xp = x0 + u * dt
@@ -133,7 +139,7 @@ class LeagueProblem:
                 for j in range(n):
                     if j != i:
                         pair = ca.sqrt(ca.sumsqr(xp[:, i] - xp[:, j]) + PLAN_EPS**2)
-                        g.append(dist - z[5] * pair + xi[zk, i] - z[6] * spread)
+                        g.append(dist - z[5] * pair - z[7] + xi[zk, i] - z[6] * spread)
         self.n_constraints = len(g)
         decision = ca.veccat(u, nu, xi)
         params = ca.veccat(*self._param_parts)
@@ -167,8 +173,8 @@ class LeagueProblem:
             q.weights,
             q.sensor,
             np.array([q.dt]),
-            q.sensing_zones.reshape(-1, 7).T,
-            q.comm_zones.reshape(-1, 7).T,
+            q.sensing_zones.reshape(-1, SENSING_COLUMNS).T,
+            q.comm_zones.reshape(-1, COMM_COLUMNS).T,
         ]
         return np.concatenate([np.asarray(p, dtype=float).ravel(order="F") for p in parts])
 

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.failure_aware import FailureAwarePolicy
 from resilient_tracking.policies.vanilla import VanillaPolicy
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.team_config import TeamConfig
 
-__all__ = ["Decision", "Policy", "VanillaPolicy", "make_policy"]
+__all__ = ["Decision", "FailureAwarePolicy", "Policy", "VanillaPolicy", "make_policy"]
 
 
 def make_policy(name: str, scenario: Scenario, config: TeamConfig) -> Policy:
     """The policy called ``name`` with its parameters from the scenario."""
     if name == "vanilla":
         return VanillaPolicy(config, scenario.policy.vanilla)
+    if name == "failure_aware":
+        return FailureAwarePolicy(config, scenario.policy.failure_aware)
     raise ValueError(f"policy: unknown name {name!r}")

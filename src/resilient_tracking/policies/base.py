@@ -10,7 +10,12 @@ import numpy as np
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.planning.league_problem import ProblemInputs, Structure
+from resilient_tracking.planning.league_problem import (
+    COMM_COLUMNS,
+    SENSING_COLUMNS,
+    ProblemInputs,
+    Structure,
+)
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 from resilient_tracking.team_config import TeamConfig
 
@@ -56,6 +61,7 @@ class Policy(ABC):
         sensing_zones: np.ndarray | None = None,
         comm_zones: np.ndarray | None = None,
     ) -> ProblemInputs:
+        no_zones = np.zeros((0, SENSING_COLUMNS)), np.zeros((0, COMM_COLUMNS))
         """Numeric inputs of a league problem: predicted targets, bounds, zones."""
         predicted = belief.ekf.predict(belief.estimates[league])
         lower, upper = self.config.velocity_bounds(robots, obs.positions)
@@ -69,8 +75,8 @@ class Policy(ABC):
             dt=self.config.dt,
             u_lower=lower,
             u_upper=upper,
-            sensing_zones=np.zeros((0, 7)) if sensing_zones is None else sensing_zones,
-            comm_zones=np.zeros((0, 7)) if comm_zones is None else comm_zones,
+            sensing_zones=no_zones[0] if sensing_zones is None else sensing_zones,
+            comm_zones=no_zones[1] if comm_zones is None else comm_zones,
         )
 
     def solve(

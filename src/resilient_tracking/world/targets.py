@@ -43,7 +43,11 @@ class TargetTruth:
             self.position = self.position + self.velocity * dt
         elif isinstance(motion, NoisyConstantVelocity):
             model = NearlyConstantVelocity(dt, motion.accel_std)
-            noise = rng.multivariate_normal(np.zeros(4), model.process_noise, method="cholesky")
+            noise = (
+                rng.multivariate_normal(np.zeros(4), model.process_noise, method="cholesky")
+                if motion.accel_std > 0
+                else np.zeros(4)
+            )
             state = model.transition @ self.state + noise
             self.position, self.velocity = state[:2], state[2:]
         elif isinstance(motion, Circle):

@@ -144,10 +144,12 @@ class World:
         kind: FailureKind = "sensing" if zone.kind == "sensing" else "comm"
         current = self.failures[kind][robot]
         persistence = zone.spec.persistence if cause == "hazard" else "temporary"
-        if current is not None and (
-            current.persistence == "permanent" or persistence == "temporary"
-        ):
-            return  # already failed; a temporary hit on a failed capability changes nothing
+        if current is not None:
+            if current.persistence == "permanent":
+                return
+            replaces_jamming = cause == "hazard" and current.cause == "jamming"
+            if persistence == "temporary" and not replaces_jamming:
+                return  # a temporary hit on a capability that is already down changes nothing
         self.failures[kind][robot] = Failure(persistence, zone.id, self.step_index, cause)
         self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(), cause=cause))  # type: ignore[arg-type]
 
