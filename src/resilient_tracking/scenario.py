@@ -198,31 +198,31 @@ class WeightSet(Strict):
 class CircleFitParams(Strict):
     """Gates of EstimateCircleParameters (Alg. 3): when an observed path counts as a circle."""
 
-    window: int = Field(80, ge=5, le=10_000)
-    min_samples: int = Field(25, ge=5)
-    min_arc: float = Field(3.6, gt=0, le=6.2832)
+    window: int = Field(40, ge=5, le=10_000)
+    min_samples: int = Field(20, ge=5)
+    min_arc: float = Field(2.5, gt=0, le=6.2832)
     max_residual: float = Field(0.08, gt=0)
     min_radius: PositiveFloat = 0.2
     max_radius: PositiveFloat = 5.0
-    silent_steps: int = Field(5, ge=1)
+    silent_steps: int = Field(3, ge=1)
 
 
 class FailureAwareParams(Strict):
     """Algorithm 1 with adaptive weights, cool-down, circular evasion and circle inference."""
 
-    risky: WeightSet = WeightSet(track=50, effort=0.05, sensing_slack=200, comm_slack=200)
+    risky: WeightSet = WeightSet(track=50, effort=0.05, sensing_slack=200, comm_slack=100)
     safe: WeightSet = WeightSet(
-        track=20, effort=0.05, sensing_slack=2000, comm_slack=2000, clearance=0.6
+        track=45, effort=0.05, sensing_slack=2000, comm_slack=500, clearance=0.4
     )
     cooldown: WeightSet = WeightSet(
-        track=10, effort=0.05, sensing_slack=4000, comm_slack=4000, clearance=0.8
+        track=40, effort=0.05, sensing_slack=4000, comm_slack=1000, clearance=0.6
     )
     cooldown_steps: int = Field(10, ge=0)
     eps1: float = Field(0.02, gt=0, lt=0.5)
-    eps2: float = Field(0.05, gt=0, lt=0.5)
+    eps2: float = Field(0.15, gt=0, lt=0.5)
     #: clearance (m) added around a comm zone an isolated robot escapes
     comm_clearance: float = Field(0.5, ge=0)
-    circle_speed: float = Field(0.6, gt=0, le=1)
+    circle_speed: float = Field(0.9, gt=0, le=1)
     circle_margin: float = Field(0.3, ge=0)
     circle_fit: CircleFitParams = CircleFitParams()
     #: jamming strength assumed for a comm zone inferred from a circle (its δ2 is unseen)

@@ -74,9 +74,9 @@ def arc_coverage(points: np.ndarray, center: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class CircleGates:
-    window: int = 80
-    min_samples: int = 25
-    min_arc: float = 3.6
+    window: int = 40
+    min_samples: int = 20
+    min_arc: float = 2.5
     max_residual: float = 0.08
     min_radius: float = 0.2
     max_radius: float = 5.0

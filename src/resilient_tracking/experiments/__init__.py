@@ -1,0 +1,1 @@
+"""Experiments: running policies over seeds and summarising the outcome."""
