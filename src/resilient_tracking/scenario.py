@@ -204,7 +204,7 @@ class CircleFitParams(Strict):
     max_residual: float = Field(0.08, gt=0)
     min_radius: PositiveFloat = 0.2
     max_radius: PositiveFloat = 5.0
-    silent_steps: int = Field(3, ge=1)
+    silent_steps: int = Field(8, ge=1)
 
 
 class FailureAwareParams(Strict):

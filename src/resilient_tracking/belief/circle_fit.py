@@ -121,20 +121,29 @@ class CircleWatcher:
 
 
 def zone_from_circle(
-    fit: CircleFit, robot: int, step: int, delta2: float, persistence: str = "permanent"
+    fit: CircleFit,
+    robot: int,
+    step: int,
+    delta2: float,
+    beta2: float,
+    margin: float,
+    persistence: str = "permanent",
 ) -> ZoneEstimate:
-    """A comm-zone estimate at the circle's center; its size is the assumed ``δ2``.
+    """A comm-zone estimate at the circle's center, read with the evasion protocol in mind.
 
-    The covariance is the fit's, floored so that a near-perfect circle does not claim
-    centimetre certainty about a zone whose true center the circling robot only estimated.
+    A circling robot flies at ``β2 √(2σ²) + margin`` around its estimate of the attacker
+    (``planning.evasion``), so the radius tells its teammates how uncertain that estimate
+    was: ``σ = (r − margin) / (β2 √2)``. The estimate's covariance is that ``σ²`` (at least
+    ``(0.1 r)²``) plus the fit's own; its clearance is the circle, so teammates stay outside
+    the circle by the same chance margin. Its ``δ2`` is assumed: nobody saw it.
     """
-    floor = (0.1 * fit.radius) ** 2
-    cov = fit.center_cov + floor * np.eye(2)
+    sigma = max(fit.radius - margin, 0.0) / (beta2 * np.sqrt(2.0))
+    spread = max(sigma, 0.1 * fit.radius) ** 2
     return ZoneEstimate(
         key=f"circle{robot}@{step}",
         kind="comm",
         mean=fit.center.copy(),
-        cov=cov,
+        cov=fit.center_cov + spread * np.eye(2),
         size=delta2,
         persistence=persistence,
         source="circle",

@@ -28,6 +28,8 @@ import numpy as np
 
 #: Distance regularisation (m) in the planner's information model and in â.
 PLAN_EPS = 0.05
+#: Keeps √(2 âᵀΣâ) differentiable where â vanishes (a robot exactly on a zone's mean).
+SPREAD_EPS = 1e-9
 #: Columns of a sensing-zone row: mu(2), sigma xx/xy/yy, r_safe, beta1.
 SENSING_COLUMNS = 7
 #: Columns of a comm-zone row: mu(2), sigma xx/xy/yy, delta2, beta2, clearance.
@@ -130,12 +132,12 @@ class LeagueProblem:
             for zl in range(nl):
                 z = szones[:, zl]
                 ahat, dist = _unit_and_norm(z[0:2] - xp[:, i])
-                spread = ca.sqrt(2 * _quad(ahat, z[2], z[3], z[4]))
+                spread = ca.sqrt(2 * _quad(ahat, z[2], z[3], z[4]) + SPREAD_EPS)
                 g.append(dist - z[5] + nu[zl, i] - z[6] * spread)
             for zk in range(nk):
                 z = czones[:, zk]
                 ahat, dist = _unit_and_norm(z[0:2] - xp[:, i])
-                spread = ca.sqrt(2 * _quad(ahat, z[2], z[3], z[4]))
+                spread = ca.sqrt(2 * _quad(ahat, z[2], z[3], z[4]) + SPREAD_EPS)
                 for j in range(n):
                     if j != i:
                         pair = ca.sqrt(ca.sumsqr(xp[:, i] - xp[:, j]) + PLAN_EPS**2)

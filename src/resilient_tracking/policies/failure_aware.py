@@ -169,7 +169,14 @@ class FailureAwarePolicy(Policy):
             fit = self.watcher.observe(robot, obs.positions[robot], silent)
             if fit is None or not listeners:
                 continue
-            zone = zone_from_circle(fit, robot, obs.step, delta2=self.params.inferred_delta2)
+            zone = zone_from_circle(
+                fit,
+                robot,
+                obs.step,
+                delta2=self.params.inferred_delta2,
+                beta2=self.beta2,
+                margin=self.params.circle_margin,
+            )
             for i in listeners:
                 belief.learn(i, zone)
             decision.events.append(

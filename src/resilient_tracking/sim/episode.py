@@ -77,12 +77,13 @@ class _Recorder:
     def observation(self, obs: TeamObservation) -> None:
         for a in obs.attacks:
             c = a.clue
+            persistence = "temporary" if a.cause == "jamming" else c.persistence
             self.event(
                 Event(
                     obs.step,
                     a.robot,
                     "attack",
-                    f"{c.kind} zone{c.zone_id} {c.persistence} ({a.cause})",
+                    f"{c.kind} zone{c.zone_id} {persistence} ({a.cause})",
                 )
             )
         for robot, kind in obs.recoveries:

@@ -1,0 +1,277 @@
+"""Scenario-level behaviour of the failure-aware policy (paper Alg. 1–4, SPEC §4.1)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from conftest import shipped
+from resilient_tracking.belief.circle_fit import fit_circle
+from resilient_tracking.planning.adaptation import adaptive_weights, as_array
+from resilient_tracking.policies import FailureAwarePolicy
+from resilient_tracking.scenario import FailureAwareParams, parse_scenario
+from resilient_tracking.sim.episode import initial_estimate, run_episode
+from resilient_tracking.team import Team
+from resilient_tracking.team_config import TeamConfig
+from resilient_tracking.world import World
+
+STILL = {"type": "constant_velocity", "velocity": [0.0, 0.0]}
+
+
+def scenario(**overrides: Any):
+    """Four-by-six workspace, three robots on the left, still targets; override anything."""
+    data: dict[str, Any] = {
+        "name": "test",
+        "seed": 1,
+        "steps": 120,
+        "workspace": {"xmin": -5, "xmax": 5, "ymin": -4, "ymax": 4},
+        "robots": [{"start": [-3.0, 1.0]}, {"start": [-3.0, 0.0]}, {"start": [-3.0, -1.0]}],
+        "targets": [{"start": [-2.0, 0.5], "motion": STILL}],
+        "zones": [],
+        "policy": {"name": "failure_aware"},
+    }
+    data.update(overrides)
+    return parse_scenario(data)
+
+
+def disk_comm_zone(mu, persistence: str, p_hit: float = 1.0) -> dict[str, Any]:
+    """A comm zone that hits a robot inside it at the first activation tick."""
+    return {
+        "kind": "comm",
+        "mu": list(mu),
+        "sigma": [[0.05, 0.0], [0.0, 0.05]],
+        "delta2": 0.01,
+        "persistence": persistence,
+        "hazard": {"model": "disk", "f_act": 1.0, "p_hit": p_hit},
+    }
+
+
+def run_with_policy(s, seed: int = 1):
+    """The episode loop by hand, keeping the policy to look at its weights."""
+    world = World(s, seed)
+    config = TeamConfig.from_scenario(s)
+    policy = FailureAwarePolicy(config, s.policy.failure_aware)
+    team = Team(policy, initial_estimate(s, world, seed))
+    weights, modes, attacked, attacks = [], [], [], []
+    for _ in range(s.steps):
+        obs = world.observe()
+        out = team.step(obs)
+        weights.append(policy.last_weights.copy())
+        modes.append(list(out.decision.modes))
+        attacked.append(int(np.sum(~obs.sensing_ok | ~obs.comm_ok)))
+        attacks.append(obs.attacks)
+        world.step(out.controls)
+    return np.array(weights), modes, np.array(attacked), attacks
+
+
+# ---------------------------------------------------------------------------- sensing
+
+
+def test_zone_is_known_to_every_league_member_in_the_step_it_is_revealed():
+    result = run_episode(shipped("sensing-temp"), policy="failure_aware", seed=1)
+    events, knowledge, robots = result["events"], result["knowledge"], result["robots"]
+    first = events[events.event == "attack"].iloc[0]
+    step, victim = int(first.step), int(first.robot)
+    league = robots[(robots.step == step) & (robots.robot == victim)].league.item()
+    members = robots[(robots.step == step) & (robots.league == league)].robot.tolist()
+    assert len(members) == 3
+    learned = knowledge[(knowledge.step == step) & (knowledge.zone == 0)]
+    assert sorted(learned.robot) == members
+    assert learned[learned.robot == victim].source.item() == "attack"
+    assert set(learned[learned.robot != victim].source) == {"broadcast"}
+    assert not len(knowledge[knowledge.step < step])  # nothing known before the attack
+
+
+def test_adaptive_weights_interpolate_between_risky_and_safe():
+    p = FailureAwareParams()
+    risky, safe = as_array(p.risky), as_array(p.safe)
+    np.testing.assert_allclose(adaptive_weights(p.risky, p.safe, 0, 3), risky)
+    np.testing.assert_allclose(adaptive_weights(p.risky, p.safe, 3, 3), safe)
+    np.testing.assert_allclose(adaptive_weights(p.risky, p.safe, 1, 3), risky - (risky - safe) / 3)
+    # more attacked robots: closer to safe in every weight that differs
+    w1, w2 = adaptive_weights(p.risky, p.safe, 1, 3), adaptive_weights(p.risky, p.safe, 2, 3)
+    differs = risky != safe
+    assert np.all(np.abs(w2 - safe)[differs] < np.abs(w1 - safe)[differs])
+
+
+def test_weights_follow_attacks_and_cooldown_lasts_exactly_its_length():
+    s = shipped("sensing-temp")
+    p = s.policy.failure_aware
+    weights, modes, attacked, attacks = run_with_policy(s)
+    attack_steps = [k for k, a in enumerate(attacks) if a]
+    assert attack_steps, "the scenario must produce a temporary attack"
+    cooling = np.zeros(len(modes), bool)
+    for k in attack_steps:
+        cooling[k : k + p.cooldown_steps] = True
+    for k, row in enumerate(modes):
+        league_rows = [i for i, m in enumerate(row) if m in ("league", "cooldown")]
+        if not league_rows:
+            continue
+        if cooling[k]:
+            assert {row[i] for i in league_rows} == {"cooldown"}, k
+            np.testing.assert_allclose(
+                weights[k, league_rows], np.tile(as_array(p.cooldown), (len(league_rows), 1))
+            )
+        else:
+            assert {row[i] for i in league_rows} == {"league"}, k
+            expected = adaptive_weights(p.risky, p.safe, int(attacked[k]), 3)
+            np.testing.assert_allclose(
+                weights[k, league_rows], np.tile(expected, (len(league_rows), 1))
+            )
+    # the cool-down ends exactly cooldown_steps after the last attack that started one
+    last = attack_steps[-1]
+    if last + p.cooldown_steps < len(modes):
+        assert "cooldown" not in modes[last + p.cooldown_steps]
+    # after the recovery and the cool-down the team is back to the risky weights
+    calm = [k for k in range(last, len(modes)) if not attacked[k] and not cooling[k]]
+    assert calm
+    np.testing.assert_allclose(weights[calm[0], 0], as_array(p.risky))
+
+
+def test_weights_move_toward_safe_while_robots_stay_attacked():
+    s = shipped("sensing-perm")
+    p = s.policy.failure_aware
+    weights, modes, attacked, _ = run_with_policy(s)
+    assert attacked.max() >= 1
+    for k in np.flatnonzero(attacked):
+        expected = adaptive_weights(p.risky, p.safe, int(attacked[k]), 3)
+        working = [i for i, m in enumerate(modes[k]) if m == "league"]
+        np.testing.assert_allclose(weights[k, working], np.tile(expected, (len(working), 1)))
+    assert weights[np.flatnonzero(attacked)[-1], :, 2].max() > as_array(p.risky)[2]
+
+
+# ---------------------------------------------------------------------------- comm, permanent
+
+
+def circling_scenario(infer: bool):
+    """Robot 0 starts on a comm jammer that destroys its radio at step 10; the targets
+    later lead its teammates across that zone."""
+    fit = {} if infer else {"min_samples": 10_000, "window": 10_000}
+    slow = {"type": "waypoints", "speed": 0.25}
+    return scenario(
+        steps=260,
+        robots=[{"start": [0.0, 0.0]}, {"start": [-3.0, 1.2]}, {"start": [-3.0, -1.2]}],
+        targets=[
+            {"start": [-2.6, 0.8], "motion": {**slow, "points": [[-2.4, 0.6], [2.5, 0.4]]}},
+            {"start": [-2.6, -0.8], "motion": {**slow, "points": [[-2.4, -0.6], [2.5, -0.2]]}},
+        ],
+        zones=[disk_comm_zone([0.0, 0.0], "permanent")],
+        policy={"name": "failure_aware", "failure_aware": {"circle_fit": fit}},
+    )
+
+
+def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
+    s = circling_scenario(infer=True)
+    result = run_episode(s, seed=1)
+    events, robots = result["events"], result["robots"]
+    hit = events[(events.event == "attack") & (events.robot == 0)]
+    assert len(hit) == 1 and "permanent" in hit.detail.item()
+    k0 = int(hit.step.item())
+    r0 = robots[robots.robot == 0]
+    assert set(r0[r0.step > k0]["mode"]) == {"circular"}
+    # the path is a clean circle around the attacker's estimated center (its clue: mu)
+    path = r0[r0.step > k0 + 15][["x", "y"]].to_numpy()
+    fit = fit_circle(path)
+    assert fit is not None
+    assert fit.residual < 0.02
+    assert np.linalg.norm(fit.center - np.array(s.zones[0].mu)) < 0.05
+    assert np.abs(np.diff(path, axis=0)).max() <= 0.1 + 1e-9  # velocity bounds
+    # a teammate infers the zone within a bounded time, near the circled center
+    inferred = events[events.event == "zone_inferred"]
+    assert len(inferred) == 1
+    assert int(inferred.step.item()) - k0 <= 60
+    knowledge = result["knowledge"]
+    circle = knowledge[knowledge.source == "circle"]
+    assert set(circle.robot) == {1, 2}
+    center = circle[["x", "y"]].to_numpy()[0]
+    assert np.linalg.norm(center - np.array(s.zones[0].mu)) < 0.15
+
+
+def _time_near(result, robots_of_interest, center, radius, after):
+    r = result["robots"]
+    r = r[r.robot.isin(robots_of_interest) & (r.step > after)]
+    return int((np.hypot(r.x - center[0], r.y - center[1]) < radius).sum())
+
+
+def test_after_inference_teammates_enter_the_jamming_region_less():
+    with_inference = run_episode(circling_scenario(infer=True), seed=1)
+    without = run_episode(circling_scenario(infer=False), seed=1)
+    assert not (without["events"].event == "zone_inferred").any()
+    k = int(with_inference["events"].query("event == 'zone_inferred'").step.item())
+    center = with_inference["zones"][["true_x", "true_y"]].to_numpy()[0]
+    # the region where this zone attacks: its disk hazard around the true center
+    radius = 2 * np.sqrt(0.05)
+    near_with = _time_near(with_inference, [1, 2], center, radius, k)
+    near_without = _time_near(without, [1, 2], center, radius, k)
+    assert near_without >= 20
+    assert near_with <= 0.5 * near_without
+
+
+# ---------------------------------------------------------------------------- comm, temporary
+
+
+def test_temporary_comm_failure_plans_alone_recovers_rejoins_and_merges():
+    s = scenario(
+        steps=150,
+        robots=[{"start": [0.0, 0.0]}, {"start": [-2.0, 1.0]}, {"start": [-2.0, -1.0]}],
+        targets=[{"start": [-1.0, 0.0], "motion": STILL}],
+        zones=[disk_comm_zone([0.0, 0.0], "temporary")],
+    )
+    result = run_episode(s, seed=1)
+    events, robots, knowledge = result["events"], result["robots"], result["knowledge"]
+    hit = events[(events.event == "attack") & (events.robot == 0)].iloc[0]
+    k0 = int(hit.step)
+    rec = events[(events.event == "recover") & (events.robot == 0)]
+    assert len(rec), "the isolated robot must escape the zone and recover"
+    k1 = int(rec.step.iloc[0])
+    r0 = robots[robots.robot == 0].set_index("step")
+    assert set(r0.loc[k0 : k1 - 1, "mode"]) == {"individual"}
+    merges = events[(events.event == "league_merge") & (events.step >= k1)]
+    assert len(merges) and "lambda=" in merges.detail.iloc[0]
+    # what it learned while isolated reaches the others once it is back
+    shared = knowledge[(knowledge.zone == 0) & knowledge.robot.isin([1, 2])]
+    assert set(shared.robot) == {1, 2}
+    assert shared.step.min() >= k1
+    assert set(shared.source) == {"broadcast"}
+
+
+# ---------------------------------------------------------------------------- structure
+
+
+def test_two_leagues_plan_jointly_and_independently():
+    s = scenario(
+        steps=40,
+        comm_range=2.0,
+        robots=[
+            {"start": [-3.0, 0.5]},
+            {"start": [-3.0, -0.5]},
+            {"start": [3.0, 0.5]},
+            {"start": [3.0, -0.5]},
+        ],
+        targets=[
+            {"start": [-1.5, 0.0], "motion": STILL},
+            {"start": [1.5, 0.0], "motion": STILL},
+        ],
+    )
+    result = run_episode(s, seed=1)
+    team, robots = result["team"], result["robots"]
+    assert (team.n_leagues == 2).all()
+    assert (team.n_solves == 2).all()
+    assert set(robots["mode"]) == {"league"}
+    leagues = robots.groupby("robot").league.unique()
+    assert {tuple(v) for v in leagues} == {(0,), (1,)}
+    # each league moves toward the target on its side
+    last = robots[robots.step == robots.step.max()].set_index("robot")
+    assert (last.loc[[0, 1], "x"] > -3.0).all() and (last.loc[[2, 3], "x"] < 3.0).all()
+
+
+@pytest.mark.parametrize("name", ["combined-temp", "combined-perm"])
+def test_combined_zones_are_learned_progressively(name):
+    result = run_episode(shipped(name), policy="failure_aware", seed=1)
+    knowledge = result["knowledge"]
+    first = knowledge.groupby("zone").step.min().sort_values()
+    assert len(first) >= 2
+    assert first.is_monotonic_increasing and first.iloc[0] < first.iloc[-1]
+    assert first.iloc[0] > 0  # nothing is known at the start
