@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-from conftest import shipped
 
+from conftest import shipped
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
 from resilient_tracking.team import Team
 
 
 def observation(step, positions, targets, sensing_ok, links, attacks=()):
-    m, n = len(positions), len(targets)
+    m = len(positions)
     delta = targets[None, :, :] - positions[:, None, :]
     z = np.stack(
         [np.hypot(delta[..., 0], delta[..., 1]), np.arctan2(delta[..., 1], delta[..., 0])], axis=-1
