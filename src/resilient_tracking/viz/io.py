@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.sim.records import COLUMNS
+
 logger = logging.getLogger(__name__)
 
 #: Columns each table must have (extra columns are kept and ignored).
@@ -32,7 +34,7 @@ REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
     ),
     "robots": ("step", "robot", "x", "y", "sensing_ok", "comm_ok"),
     "targets": ("step", "target", "x", "y", "est_x", "est_y"),
-    "events": ("step", "robot", "event", "detail"),
+    "events": tuple(COLUMNS["events"]),
     "zones": (
         "zone",
         "kind",
@@ -45,18 +47,7 @@ REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
         "true_x",
         "true_y",
     ),
-    "knowledge": (
-        "step",
-        "robot",
-        "zone",
-        "kind",
-        "x",
-        "y",
-        "sigma_xx",
-        "sigma_xy",
-        "sigma_yy",
-        "size",
-    ),
+    "knowledge": tuple(COLUMNS["knowledge"]),
 }
 
 #: Tables that may be absent from the folder (read as empty).
