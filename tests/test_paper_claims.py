@@ -18,7 +18,7 @@ def results():
 
 #: Not yet calibrated: in our model an isolated vanilla robot still tracks alone, so the price
 #: of keeping clear of a jammer roughly equals the price of being jammed (docs/paper-map.md).
-UNCALIBRATED = {"comm-temp", "comm-perm"}
+UNCALIBRATED = {"comm-perm"}
 
 
 @pytest.mark.parametrize(
