@@ -24,6 +24,7 @@ from typing import Any
 
 import pandas as pd
 import yaml
+from calibration_table import seed_range  # sibling script: docs/ is on sys.path when run
 from joblib import Parallel, delayed
 
 from resilient_tracking.experiments.compare import summarise
@@ -37,13 +38,6 @@ def set_path(data: Any, path: str, value: Any) -> None:
     for key in keys[:-1]:
         data = data.setdefault(key, {}) if isinstance(data, dict) else data[key]
     data[keys[-1]] = value
-
-
-def seed_range(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(s) for s in text.split(",")]
 
 
 def main() -> None:

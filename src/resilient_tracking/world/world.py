@@ -84,15 +84,11 @@ class World:
         """Measurements and self-knowledge at the current step; clears pending events."""
         positions = self.robot_positions
         targets = np.array([t.position for t in self.targets])
-        # Draw noise for every pair every step so the stream stays aligned across policies.
-        m, n = len(positions), len(targets)
-        clean = self.sensor.predict(positions[:, None, :], targets[None, :, :])
-        std = np.sqrt(self.sensor.noise_variance(clean[..., 0]))
-        noise = self._rng_measurements.standard_normal((m, n, 2))
-        z = clean + std * noise
-        z[..., 1] = (z[..., 1] + np.pi) % (2 * np.pi) - np.pi
+        # Noise is drawn for every pair every step so the stream stays aligned across policies.
+        z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
+        distance = np.linalg.norm(targets[None, :, :] - positions[:, None, :], axis=-1)
         sensing_ok = self.capability_ok("sensing")
-        measured = sensing_ok[:, None] & self.sensor.in_range(clean[..., 0])
+        measured = sensing_ok[:, None] & self.sensor.in_range(distance)
         z[~measured] = np.nan
         obs = TeamObservation(
             step=self.step_index,
