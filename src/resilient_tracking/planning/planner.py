@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -28,11 +30,17 @@ class PlanResult:
     fallback: str = ""
 
 
+#: Test hook called after every solver attempt with (rung, solution, stats); it returns the
+#: pair to use instead, or raises. Fault-injection tests corrupt attempts through it.
+FaultHook = Callable[[str, dict[str, Any], dict[str, Any]], tuple[dict[str, Any], dict[str, Any]]]
+
+
 class LeaguePlanner:
     """Holds one problem per structure and a warm start per league membership."""
 
-    def __init__(self, solver: str = "ipopt"):
+    def __init__(self, solver: str = "ipopt", fault_hook: FaultHook | None = None):
         self.solver = solver
+        self.fault_hook = fault_hook
         self._problems: dict[Structure, LeagueProblem] = {}
         self._warm: dict[tuple[Structure, tuple[int, ...]], dict[str, np.ndarray]] = {}
 
@@ -51,6 +59,8 @@ class LeaguePlanner:
         for rung, warm in enumerate(attempts):
             try:
                 solution, stats = problem.solve(q, warm)
+                if self.fault_hook is not None:
+                    solution, stats = self.fault_hook("warm" if warm else "cold", solution, stats)
             except Exception as err:  # a solver must never crash an episode
                 log.warning("league solve raised %s: %s", type(err).__name__, err)
                 status = f"exception: {type(err).__name__}"
