@@ -134,8 +134,10 @@ def zone_from_circle(
     A circling robot flies at ``β2 √(2σ²) + margin`` around its estimate of the attacker
     (``planning.evasion``), so the radius tells its teammates how uncertain that estimate
     was: ``σ = (r − margin) / (β2 √2)``. The estimate's covariance is that ``σ²`` (at least
-    ``(0.1 r)²``) plus the fit's own; its clearance is the circle, so teammates stay outside
-    the circle by the same chance margin. Its ``δ2`` is assumed: nobody saw it.
+    ``(0.1 r)²``) plus the fit's own. Its clearance is ``margin``: the comm chance margin
+    ``β2 √(2σ²)`` already spans ``r − margin``, so teammates keep to the circle itself
+    (plus ``δ2`` times their link length), not a second radius beyond it. Its ``δ2`` is
+    assumed: nobody saw it.
     """
     sigma = max(fit.radius - margin, 0.0) / (beta2 * np.sqrt(2.0))
     spread = max(sigma, 0.1 * fit.radius) ** 2
@@ -149,5 +151,5 @@ def zone_from_circle(
         source="circle",
         learned_step=step,
         zone_id=None,
-        clearance=fit.radius,
+        clearance=margin,
     )

@@ -1,0 +1,224 @@
+"""The paper's experiments (SPEC §6) as data: scenario, variants, seeds.
+
+An :class:`Experiment` names a shipped scenario file and the variants to run on it. A
+:class:`Variant` is a policy plus overrides of the scenario file by dotted path
+(``policy.failure_aware.eps1``, ``zones.0.hazard.kappa``…) and, for the scaling study, how many
+of the file's robots and targets to keep. Every (variant, seed) pair is one run.
+
+``quick`` experiments shrink the seed count (and drop grid cells) so that the whole catalogue
+runs in a few minutes, as CI does; the claims checked on them are the same.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from resilient_tracking.scenario import Scenario, parse_scenario
+
+
+def default_scenario_dir() -> Path:
+    """``./scenarios`` when run from a checkout, else the checkout this package sits in."""
+    here = Path.cwd() / "scenarios"
+    if (here / "bench-risk.yaml").exists():
+        return here
+    return Path(__file__).resolve().parents[3] / "scenarios"
+
+
+#: Risk levels of the comparison with SOG (SPEC §5): ours ε1 and SOG ρ2 per level.
+RISK_LEVELS: dict[str, tuple[float, float]] = {
+    "risky": (0.05, 0.6),
+    "regular": (0.02, 0.3),
+    "conservative": (0.01, 0.2),
+}
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One arm of an experiment: a policy and how the scenario file is changed for it."""
+
+    label: str
+    policy: str
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    n_robots: int | None = None
+    n_targets: int | None = None
+    #: free-form attributes used to group runs in figures and claims (risk level, team size)
+    tags: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    scenario: str  # file name under scenarios/, without .yaml
+    variants: tuple[Variant, ...]
+    seeds: int
+    description: str = ""
+    #: figures and claims to draw from it: "pair", "risk", "scale" or "complex"
+    kind: str = "pair"
+
+    def seed_list(self, n: int | None = None) -> list[int]:
+        return list(range(1, (n or self.seeds) + 1))
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run of a sweep: a fully validated scenario, a policy and a seed."""
+
+    experiment: str
+    variant: Variant
+    seed: int
+    scenario: Scenario
+
+    @property
+    def run_id(self) -> str:
+        return f"{self.experiment}/{self.variant.label}/seed-{self.seed:03d}"
+
+    @property
+    def fingerprint(self) -> str:
+        """Hash of everything that determines the run's tables; a stored run with another
+        fingerprint is stale and is run again."""
+        text = json.dumps(
+            [self.scenario.model_dump(mode="json"), self.variant.policy, self.seed],
+            sort_keys=True,
+        )
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def set_path(data: Any, path: str, value: Any) -> None:
+    """Set ``data[a][b][0]…`` from a dotted path ``a.b.0``, creating mappings on the way."""
+    keys = [int(k) if k.isdigit() else k for k in path.split(".")]
+    for key in keys[:-1]:
+        data = data.setdefault(key, {}) if isinstance(data, dict) else data[key]
+    data[keys[-1]] = value
+
+
+def scenario_for(
+    experiment: Experiment, variant: Variant, scenario_dir: Path | None = None
+) -> Scenario:
+    """The validated scenario of one variant (raises ``ScenarioError`` naming the field)."""
+    path = (scenario_dir or default_scenario_dir()) / f"{experiment.scenario}.yaml"
+    data = yaml.safe_load(path.read_text())
+    if variant.n_robots is not None:
+        data["robots"] = data["robots"][: variant.n_robots]
+    if variant.n_targets is not None:
+        data["targets"] = data["targets"][: variant.n_targets]
+    data.setdefault("policy", {})["name"] = variant.policy
+    for key, value in variant.overrides.items():
+        set_path(data, key, value)
+    return parse_scenario(data, f"{path.name} [{variant.label}]")
+
+
+def _pair(name: str, seeds: int) -> Experiment:
+    return Experiment(
+        name=name,
+        scenario=name,
+        seeds=seeds,
+        description="adaptive (failure-aware) vs vanilla",
+        variants=(Variant("vanilla", "vanilla"), Variant("failure_aware", "failure_aware")),
+    )
+
+
+def _risk_variants() -> tuple[Variant, ...]:
+    variants = []
+    for level, (eps1, rho2) in RISK_LEVELS.items():
+        variants.append(
+            Variant(
+                f"ours-{level}",
+                "failure_aware",
+                {"policy.failure_aware.eps1": eps1},
+                tags={"method": "ours", "risk": level},
+            )
+        )
+        variants.append(
+            Variant(
+                f"sog-{level}",
+                "sog",
+                {"policy.sog.rho2": rho2},
+                tags={"method": "sog", "risk": level},
+            )
+        )
+    return tuple(variants)
+
+
+def _scale_variants(robots: Iterable[int], targets: Iterable[int]) -> tuple[Variant, ...]:
+    return tuple(
+        Variant(
+            f"{method}-r{r}-t{t}",
+            policy,
+            n_robots=r,
+            n_targets=t,
+            tags={"method": method, "robots": r, "targets": t},
+        )
+        for t in targets
+        for r in robots
+        for method, policy in (("ours", "failure_aware"), ("sog", "sog"))
+    )
+
+
+SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm")
+
+
+def catalog(quick: bool = False) -> dict[str, Experiment]:
+    """Every experiment of SPEC §6 by name; ``quick`` is the CI-sized version."""
+    experiments = [_pair(name, 2 if quick else 10) for name in SIX]
+    experiments += [
+        Experiment(
+            "bench-risk",
+            "bench-risk",
+            seeds=2 if quick else 10,
+            kind="risk",
+            description="4×4, one sensing zone, permanent failures: ours ε1 vs SOG ρ2",
+            variants=_risk_variants(),
+        ),
+        Experiment(
+            "bench-scale",
+            "bench-scale",
+            seeds=1 if quick else 5,
+            kind="scale",
+            description="robots 2..5 × targets 3..5, two sensing zones: ours vs SOG",
+            variants=_scale_variants((2, 5), (3,))
+            if quick
+            else _scale_variants(range(2, 6), range(3, 6)),
+        ),
+        Experiment(
+            "bench-complex",
+            "bench-complex",
+            seeds=1 if quick else 5,
+            kind="complex",
+            description="three sensing zones along the path, 600 steps, three risk levels",
+            variants=_risk_variants(),
+        ),
+    ]
+    return {e.name: e for e in experiments}
+
+
+def select(names: Iterable[str], quick: bool = False) -> list[Experiment]:
+    """The experiments named (``all`` for every one); unknown names raise ``KeyError``."""
+    known = catalog(quick)
+    names = list(names) or ["all"]
+    if "all" in names:
+        return list(known.values())
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise KeyError(f"unknown experiment(s) {unknown}; known: {', '.join(known)}")
+    return [known[n] for n in names]
+
+
+def tasks(
+    experiment: Experiment, seeds: int | None = None, scenario_dir: Path | None = None
+) -> list[Task]:
+    """Every run of an experiment, validated before anything runs."""
+    out = []
+    for variant in experiment.variants:
+        scenario = scenario_for(experiment, variant, scenario_dir)
+        out += [
+            Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
+            for seed in experiment.seed_list(seeds)
+        ]
+    return out

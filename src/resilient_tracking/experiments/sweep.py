@@ -1,0 +1,145 @@
+"""Run many episodes and store each as it finishes; resume where an interrupted sweep stopped.
+
+A run lives in ``OUT/runs/<experiment>/<variant>/seed-NNN/``. It is written into a hidden
+temporary folder beside its final place and renamed when complete, so a run folder is either
+whole or absent, whatever kills the process. A run is skipped when its folder exists and its
+manifest carries the task's fingerprint (scenario, policy, seed); a stale one is run again.
+
+Episodes run in worker processes (joblib locally, or Dask workers given a scheduler address);
+only the parent process writes, so workers need no shared file system.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import shutil
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+
+from resilient_tracking.experiments.catalog import Task
+from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.records import EpisodeResult, write_run
+
+log = logging.getLogger(__name__)
+
+TMP_MARK = ".tmp-"
+
+
+def run_dir(out: Path, task: Task) -> Path:
+    return Path(out) / "runs" / task.run_id
+
+
+def is_done(out: Path, task: Task) -> bool:
+    manifest = run_dir(out, task) / "manifest.json"
+    if not manifest.exists():
+        return False
+    try:
+        return bool(json.loads(manifest.read_text())["fingerprint"] == task.fingerprint)
+    except (ValueError, KeyError):
+        return False
+
+
+def run_task(task: Task) -> tuple[str, EpisodeResult]:
+    """Run one task (in a worker); the result carries the sweep's labels in its manifest."""
+    result = run_episode(task.scenario, policy=task.variant.policy, seed=task.seed)
+    result.manifest.update(
+        experiment=task.experiment,
+        variant=task.variant.label,
+        tags=dict(task.variant.tags),
+        fingerprint=task.fingerprint,
+    )
+    return task.run_id, result
+
+
+def store(out: Path, task: Task, result: EpisodeResult) -> Path:
+    """Write a finished run atomically: a temporary folder, then one rename."""
+    final = run_dir(out, task)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = final.parent / f"{TMP_MARK}{final.name}-{uuid.uuid4().hex[:8]}"
+    write_run(result, tmp)
+    if final.exists():  # a stale run of an older scenario or policy
+        shutil.rmtree(final)
+    os.replace(tmp, final)
+    return final
+
+
+def clean_partial(out: Path) -> int:
+    """Remove temporary folders left by a killed sweep; returns how many."""
+    runs = Path(out) / "runs"
+    leftovers = [p for p in runs.glob(f"*/*/{TMP_MARK}*") if p.is_dir()] if runs.exists() else []
+    for p in leftovers:
+        shutil.rmtree(p, ignore_errors=True)
+    return len(leftovers)
+
+
+def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, EpisodeResult]]:
+    if jobs == 1:
+        yield from map(run_task, todo)
+        return
+    from joblib import Parallel, delayed
+
+    parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
+    yield from parallel(delayed(run_task)(t) for t in todo)
+
+
+def _dask_results(
+    todo: Sequence[Task], address: str, jobs: int
+) -> Iterator[tuple[str, EpisodeResult]]:
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError as err:  # pragma: no cover - depends on the installed extras
+        raise RuntimeError(
+            "--dask needs dask.distributed: pip install 'resilient-tracking[cluster]'"
+        ) from err
+    cluster = (
+        LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
+        if address == "local"
+        else None
+    )
+    client = Client(cluster if cluster is not None else address)
+    try:
+        futures = client.map(run_task, list(todo), pure=False)
+        for future in as_completed(futures):
+            yield future.result()
+            future.release()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_sweep(
+    tasks: Sequence[Task],
+    out: str | Path,
+    jobs: int = 1,
+    dask: str | None = None,
+    on_done: Callable[[Task, bool], object] | None = None,
+) -> list[Task]:
+    """Run every task not already stored under ``out``; returns the tasks that ran.
+
+    ``on_done(task, ran)`` is called once per task: at once for skipped ones (``ran=False``),
+    then as each run is stored.
+    """
+    out = Path(out)
+    removed = clean_partial(out)
+    if removed:
+        log.info("removed %d partial run folder(s) of an interrupted sweep", removed)
+    by_id = {t.run_id: t for t in tasks}
+    if len(by_id) != len(tasks):
+        raise ValueError("two tasks share a run id")
+    todo = [t for t in tasks if not is_done(out, t)]
+    pending = {t.run_id for t in todo}
+    for t in tasks:
+        if on_done is not None and t.run_id not in pending:
+            on_done(t, False)
+    log.info("%d run(s) to do, %d already stored", len(todo), len(tasks) - len(todo))
+    results = _dask_results(todo, dask, jobs) if dask else _joblib_results(todo, jobs)
+    for run_id, result in results:
+        task = by_id[run_id]
+        store(out, task, result)
+        if on_done is not None:
+            on_done(task, True)
+    return todo

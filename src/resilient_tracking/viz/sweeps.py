@@ -1,0 +1,137 @@
+"""Figures over many saved runs (SPEC §6): snapshots, mean ± 1 std bands, box plots.
+
+Inputs are :class:`~resilient_tracking.viz.io.RunData` read from run folders and the summary
+table built from them, never objects of a live simulation.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from resilient_tracking.viz.curves import wants_log_scale
+from resilient_tracking.viz.io import RunData
+from resilient_tracking.viz.trajectories import DPI, plot_trajectory_map
+
+log = logging.getLogger(__name__)
+
+#: Curves of the band figures: team-table column, axis label.
+BAND_METRICS = (("mse", "MSE [m²]"), ("trace", "Σ tr P [m²]"))
+EFFORT_METRIC = (("effort", "effort Σ‖u‖ [m/s]"),)
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    log.info("wrote %s", path)
+    return path
+
+
+def snapshot_steps(last_step: int, n: int = 6) -> list[int]:
+    """``n`` evenly spread steps from the first sixth of the run to its end."""
+    return [int(round(s)) for s in np.linspace(last_step / n, last_step, n)]
+
+
+def plot_snapshots(run: RunData, path: Path, n: int = 6) -> Path:
+    """The trajectory map at ``n`` times in one figure (the paper's snapshot panels)."""
+    steps = snapshot_steps(run.last_step, n)
+    cols = 3
+    rows = (len(steps) + cols - 1) // cols
+    fig = Figure(figsize=(5.2 * cols, 3.9 * rows + 0.8), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(rows, cols)).ravel()
+    for ax, step in zip(axes, steps, strict=False):
+        t = float(run.times_of([step])[0])
+        plot_trajectory_map(run, None, until_step=step, ax=ax, legend=False, title=f"t = {t:.1f} s")
+    for ax in axes[len(steps) :]:
+        ax.set_visible(False)
+    handles, labels = axes[0].get_legend_handles_labels()
+    unique = dict(zip(labels, handles, strict=False))
+    fig.legend(
+        unique.values(), unique.keys(), loc="outside lower center", ncols=5, fontsize="small"
+    )
+    fig.suptitle(run.title(), fontsize="medium")
+    return _save(fig, path)
+
+
+def _stack(runs: Sequence[RunData], column: str) -> tuple[np.ndarray, np.ndarray]:
+    """Time axis and a (seeds, steps) array of ``column`` (runs cut to the shortest)."""
+    n = min(len(r.team) for r in runs)
+    time = runs[0].team["time"].to_numpy(dtype=float)[:n]
+    values = np.stack([r.team[column].to_numpy(dtype=float)[:n] for r in runs])
+    return time, values
+
+
+def plot_bands(
+    groups: Mapping[str, Sequence[RunData]],
+    path: Path,
+    metrics: Sequence[tuple[str, str]] = BAND_METRICS,
+    title: str = "",
+) -> Path:
+    """Mean ± 1 std over seeds against time, one curve per group, one panel per metric."""
+    fig = Figure(figsize=(8.5, 2.9 * len(metrics) + 0.6), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(len(metrics), 1, sharex=True))
+    for ax, (column, label) in zip(axes, metrics, strict=True):
+        all_values = []
+        for name, runs in groups.items():
+            if not runs:
+                continue
+            time, values = _stack(runs, column)
+            mean, std = values.mean(axis=0), values.std(axis=0)
+            (line,) = ax.plot(time, mean, lw=1.4, label=f"{name} (n={len(runs)})")
+            low = np.maximum(mean - std, np.finfo(float).tiny) if column != "effort" else mean - std
+            ax.fill_between(time, low, mean + std, color=line.get_color(), alpha=0.2, lw=0)
+            all_values.append(values)
+        if (
+            column in ("mse", "trace")
+            and all_values
+            and wants_log_scale(np.concatenate([v.ravel() for v in all_values]))
+        ):
+            ax.set_yscale("log")
+        ax.set_ylabel(label)
+        ax.grid(True, lw=0.4, alpha=0.4)
+    axes[0].legend(fontsize="small")
+    axes[-1].set_xlabel("time [s]")
+    if title:
+        fig.suptitle(title, fontsize="medium")
+    return _save(fig, path)
+
+
+def plot_scale_boxes(summary: pd.DataFrame, path: Path, metric: str = "trace") -> Path:
+    """Box plots of a time-averaged metric: robots on the x axis, one panel per target count,
+    one box per method side by side."""
+    targets = sorted(summary["targets"].unique())
+    robots = sorted(summary["robots"].unique())
+    methods = sorted(summary["tag_method"].unique())
+    fig = Figure(figsize=(4.2 * len(targets), 3.8), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(1, len(targets), sharey=True))
+    width = 0.8 / len(methods)
+    colors = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
+    for ax, t in zip(axes, targets, strict=True):
+        for m, method in enumerate(methods):
+            rows = summary[(summary["targets"] == t) & (summary["tag_method"] == method)]
+            data = [rows.loc[rows["robots"] == r, metric].to_numpy() for r in robots]
+            positions = np.arange(len(robots)) + (m - (len(methods) - 1) / 2) * width
+            box = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True)
+            for patch in box["boxes"]:
+                patch.set_facecolor(colors[m % len(colors)])
+                patch.set_alpha(0.5)
+            ax.plot([], [], color=colors[m % len(colors)], lw=6, alpha=0.5, label=method)
+        ax.set_xticks(np.arange(len(robots)), [str(r) for r in robots])
+        ax.set_xlabel("robots")
+        ax.set_title(f"{t} targets", fontsize="medium")
+        ax.grid(True, axis="y", lw=0.4, alpha=0.4)
+    if wants_log_scale(summary[metric].to_numpy(dtype=float)):
+        axes[0].set_yscale("log")
+    axes[0].set_ylabel(f"time-averaged {metric}")
+    axes[-1].legend(fontsize="small")
+    return _save(fig, path)

@@ -1,0 +1,168 @@
+"""`rtrack reproduce`: experiments as data, resumable sweeps, report and claims."""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import replace
+
+import pandas as pd
+import pytest
+
+from resilient_tracking.cli import main
+from resilient_tracking.experiments.catalog import (
+    SIX,
+    Experiment,
+    Variant,
+    catalog,
+    scenario_for,
+    select,
+    tasks,
+)
+from resilient_tracking.experiments.claims import check
+from resilient_tracking.experiments.report import write_report
+from resilient_tracking.experiments.sweep import TMP_MARK, is_done, run_dir, run_sweep
+from resilient_tracking.sim.records import TABLES
+
+TINY = Experiment(
+    "tiny",
+    "sensing-temp",
+    (Variant("vanilla", "vanilla"), Variant("failure_aware", "failure_aware")),
+    seeds=2,
+    description="a short pair",
+)
+
+
+def tiny_tasks(steps: int = 12):
+    return [replace(t, scenario=t.scenario.with_overrides(steps=steps)) for t in tasks(TINY)]
+
+
+def tables_of(out, task):
+    return {n: pd.read_parquet(run_dir(out, task) / f"{n}.parquet") for n in TABLES}
+
+
+def test_catalog_has_every_experiment_of_spec_section_6_with_its_seed_counts():
+    full = catalog()
+    assert set(full) == {*SIX, "bench-risk", "bench-scale", "bench-complex"}
+    assert all(full[n].seeds == 10 for n in SIX)
+    assert full["bench-scale"].seeds == 5
+    cells = {(v.tags["robots"], v.tags["targets"]) for v in full["bench-scale"].variants}
+    assert cells == {(r, t) for r in range(2, 6) for t in range(3, 6)}
+    risk = full["bench-risk"].variants
+    assert {v.policy for v in risk} == {"failure_aware", "sog"}
+    assert {v.overrides.get("policy.failure_aware.eps1") for v in risk} >= {0.05, 0.02, 0.01}
+    assert {v.overrides.get("policy.sog.rho2") for v in risk} >= {0.6, 0.3, 0.2}
+    assert all(catalog(quick=True)[n].seeds < full[n].seeds for n in SIX)
+
+
+def test_variants_change_the_scenario_they_say_they_change():
+    scale = catalog()["bench-scale"]
+    v = next(v for v in scale.variants if v.n_robots == 3 and v.n_targets == 4)
+    s = scenario_for(scale, v)
+    assert (len(s.robots), len(s.targets), s.policy.name) == (3, 4, v.policy)
+    ours = next(v for v in catalog()["bench-risk"].variants if v.label == "ours-conservative")
+    assert scenario_for(catalog()["bench-risk"], ours).policy.failure_aware.eps1 == 0.01
+
+
+def test_unknown_experiment_is_a_clear_error(capsys):
+    with pytest.raises(KeyError, match="nope"):
+        select(["nope"])
+    assert main(["reproduce", "nope", "--out", "unused"]) == 1
+    assert "nope" in capsys.readouterr().err
+
+
+def test_sweep_stores_each_run_and_skips_finished_ones_on_a_rerun(tmp_path):
+    todo = tiny_tasks()
+    assert len(run_sweep(todo, tmp_path, jobs=2)) == 4
+    assert all(is_done(tmp_path, t) for t in todo)
+    first = tables_of(tmp_path, todo[0])
+    assert run_sweep(todo, tmp_path, jobs=2) == []
+    # an interrupted sweep: one run missing, one half-written temporary folder
+    shutil.rmtree(run_dir(tmp_path, todo[1]))
+    leftover = run_dir(tmp_path, todo[2]).parent / f"{TMP_MARK}seed-009-dead"
+    leftover.mkdir()
+    (leftover / "team.parquet").write_bytes(b"half")
+    ran = run_sweep(todo, tmp_path, jobs=1)
+    assert [t.run_id for t in ran] == [todo[1].run_id]
+    assert not leftover.exists()
+    for name, table in first.items():
+        pd.testing.assert_frame_equal(tables_of(tmp_path, todo[0])[name], table)
+
+
+def test_a_changed_scenario_makes_the_stored_run_stale(tmp_path):
+    todo = tiny_tasks()[:1]
+    run_sweep(todo, tmp_path)
+    longer = tiny_tasks(steps=14)[:1]
+    assert not is_done(tmp_path, longer[0])
+    assert len(run_sweep(longer, tmp_path)) == 1
+    assert len(tables_of(tmp_path, longer[0])["team"]) == 14
+
+
+def test_dask_local_cluster_gives_the_same_tables_as_joblib(tmp_path):
+    todo = tiny_tasks()[:2]
+    run_sweep(todo, tmp_path / "joblib", jobs=2)
+    run_sweep(todo, tmp_path / "dask", jobs=2, dask="local")
+    for t in todo:
+        a, b = tables_of(tmp_path / "joblib", t), tables_of(tmp_path / "dask", t)
+        for name in TABLES:
+            pd.testing.assert_frame_equal(a[name], b[name])
+
+
+def test_report_has_a_table_figures_and_claims_for_each_experiment(tmp_path):
+    todo = tiny_tasks(steps=30)
+    run_sweep(todo, tmp_path, jobs=2)
+    report = write_report([TINY], {"tiny": todo}, tmp_path, "test").read_text()
+    assert "## tiny" in report and "| vanilla | 2 |" in report and "| failure_aware | 2 |" in report
+    assert "adaptive < vanilla in time-averaged trace" in report
+    for line in report.splitlines():
+        if line.startswith("!["):
+            assert (tmp_path / line.split("(")[1].rstrip(")")).stat().st_size > 10_000
+    assert (tmp_path / "tiny" / "summary.csv").exists()
+
+
+def _summary(**columns):
+    return pd.DataFrame(columns)
+
+
+def test_claims_fail_when_the_numbers_say_so():
+    pair = _summary(
+        policy=["vanilla", "failure_aware"] * 2,
+        seed=[1, 1, 2, 2],
+        trace=[1.0, 2.0, 1.0, 2.0],
+        mse=[2.0, 1.0, 2.0, 1.0],
+    )
+    holds = {c.statement: c.holds for c in check(TINY, pair)}
+    assert holds == {
+        "adaptive < vanilla in time-averaged trace": False,
+        "adaptive < vanilla in time-averaged mse": True,
+    }
+    risk = _summary(
+        tag_method=["ours", "ours", "sog", "sog"],
+        tag_risk=["risky", "conservative"] * 2,
+        sensing_failed_end=[3, 1, 1, 1],
+    )
+    verdict = [c.holds for c in check(catalog()["bench-risk"], risk)]
+    assert verdict == [True, False]
+    scale = _summary(
+        tag_method=["ours"] * 4,
+        targets=[3] * 4,
+        robots=[2, 2, 5, 5],
+        trace=[0.5, 0.7, 0.2, 1.2],
+    )
+    assert [c.holds for c in check(catalog()["bench-scale"], scale)] == [False]
+    complex_ = _summary(
+        tag_method=["ours"] * 3 + ["sog"] * 3,
+        tag_risk=["risky", "regular", "conservative"] * 2,
+        robots=[3] * 6,
+        sensing_failed_end=[3, 2, 1, 3, 3, 3],
+    )
+    assert [c.holds for c in check(catalog()["bench-complex"], complex_)] == [True, False]
+
+
+def test_animate_writes_a_gif_of_a_run(tmp_path, capsys):
+    todo = tiny_tasks()[:1]
+    run_sweep(todo, tmp_path)
+    gif = tmp_path / "a.gif"
+    assert main(["animate", str(run_dir(tmp_path, todo[0])), "--out", str(gif), "--frames", "4"]) == 0
+    assert gif.read_bytes()[:3] == b"GIF"
+    assert main(["animate", str(tmp_path / "missing")]) == 1
+    assert "does not exist" in capsys.readouterr().err
