@@ -162,7 +162,9 @@ def test_animate_writes_a_gif_of_a_run(tmp_path, capsys):
     todo = tiny_tasks()[:1]
     run_sweep(todo, tmp_path)
     gif = tmp_path / "a.gif"
-    assert main(["animate", str(run_dir(tmp_path, todo[0])), "--out", str(gif), "--frames", "4"]) == 0
+    assert (
+        main(["animate", str(run_dir(tmp_path, todo[0])), "--out", str(gif), "--frames", "4"]) == 0
+    )
     assert gif.read_bytes()[:3] == b"GIF"
     assert main(["animate", str(tmp_path / "missing")]) == 1
     assert "does not exist" in capsys.readouterr().err
