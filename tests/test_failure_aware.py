@@ -149,6 +149,7 @@ def circling_scenario(infer: bool):
     """Robot 0 starts on a comm jammer that destroys its radio at step 10; the targets
     later lead its teammates across that zone."""
     fit = {} if infer else {"min_samples": 10_000, "window": 10_000}
+    guess = {} if infer else {"silence_std": 0.0}
     slow = {"type": "waypoints", "speed": 0.25}
     return scenario(
         steps=260,
@@ -158,7 +159,7 @@ def circling_scenario(infer: bool):
             {"start": [-2.6, -0.8], "motion": {**slow, "points": [[-2.4, -0.6], [2.5, -0.2]]}},
         ],
         zones=[disk_comm_zone([0.0, 0.0], "permanent")],
-        policy={"name": "failure_aware", "failure_aware": {"circle_fit": fit}},
+        policy={"name": "failure_aware", "failure_aware": {"circle_fit": fit, **guess}},
     )
 
 
@@ -187,6 +188,11 @@ def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
     assert set(circle.robot) == {1, 2}
     center = circle[["x", "y"]].to_numpy()[0]
     assert np.linalg.norm(center - np.array(s.zones[0].mu)) < 0.15
+    # before the fit, the league kept clear of a provisional zone where robot 0 fell silent
+    suspected = events[events.event == "zone_suspected"]
+    assert list(suspected.robot) == [0] and int(suspected.step.item()) <= k0 + 1
+    guess = knowledge[knowledge.source == "silence"]
+    assert set(guess.robot) == {1, 2} and (guess.step < int(inferred.step.item())).all()
 
 
 def _time_near(result, robots_of_interest, center, radius, after):

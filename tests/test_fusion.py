@@ -160,3 +160,28 @@ def test_fuse_estimates_per_target(criterion: Criterion) -> None:
     np.testing.assert_array_equal(a.cov, a_before.cov)
     fused.cov[2, 0, 0] += 1.0
     assert a.cov[2, 0, 0] == a_before.cov[2, 0, 0]
+
+
+def test_a_fitted_circle_replaces_a_provisional_silence_guess_but_not_the_reverse():
+    from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+
+    def zone(source, step, mean=(0.0, 0.0)):
+        return ZoneEstimate(
+            f"{source}@{step}",
+            "comm",
+            np.array(mean),
+            0.09 * np.eye(2),
+            0.3,
+            "permanent",
+            source,
+            step,
+        )
+
+    kb = KnowledgeBase()
+    assert kb.learn(zone("silence", 1))
+    assert not kb.learn(zone("silence", 2, (0.1, 0.0)))  # the same place: nothing new
+    assert kb.learn(zone("circle", 5, (0.2, 0.1)))
+    assert [z.source for z in kb.of_kind("comm")] == ["circle"]
+    assert not kb.learn(zone("silence", 9, (0.2, 0.0)))
+    assert kb.learn(zone("silence", 9, (3.0, 0.0)))  # elsewhere: a second suspect
+    assert len(kb) == 2

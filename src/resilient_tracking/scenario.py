@@ -141,11 +141,20 @@ class DiskHazard(Strict):
 Hazard = Annotated[GaussianHazard | DiskHazard, Field(discriminator="model")]
 
 
+#: A zone covariance must be well inside what float arithmetic can handle: entries at most
+#: MAX_SIGMA m², smallest eigenvalue above MIN_SIGMA_EIGENVALUE (relative to the largest).
+MAX_SIGMA = 1e6
+MIN_SIGMA_EIGENVALUE = 1e-9
+
+
 def _check_covariance(value: Matrix2) -> Matrix2:
     m = np.asarray(value, dtype=float)
     if not np.allclose(m, m.T, rtol=0, atol=1e-12):
         raise ValueError("must be symmetric")
-    if np.linalg.eigvalsh(m).min() <= 0:
+    if np.abs(m).max() > MAX_SIGMA:
+        raise ValueError(f"entries must be at most {MAX_SIGMA:g} m² in size")
+    eig = np.linalg.eigvalsh(m)
+    if eig.min() <= MIN_SIGMA_EIGENVALUE * max(eig.max(), 1.0):
         raise ValueError("must be positive definite")
     sym = (m + m.T) / 2
     return ((sym[0, 0], sym[0, 1]), (sym[1, 0], sym[1, 1]))
@@ -227,6 +236,9 @@ class FailureAwareParams(Strict):
     circle_fit: CircleFitParams = CircleFitParams()
     #: jamming strength assumed for a comm zone inferred from a circle (its δ2 is unseen)
     inferred_delta2: PositiveFloat = 0.3
+    #: spread (m) of the provisional comm zone put where a teammate fell silent, until a circle
+    #: fit replaces the guess (0 turns the provisional zone off)
+    silence_std: float = Field(0.3, ge=0)
 
 
 class PolicySpec(Strict):

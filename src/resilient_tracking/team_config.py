@@ -19,6 +19,8 @@ class TeamConfig:
     upper: np.ndarray  # (2,)
     sensor: RangeBearingSensor
     target_model: NearlyConstantVelocity
+    #: links beyond this distance are lost without any jammer (None: no range limit)
+    comm_range: float | None = None
 
     @property
     def n_robots(self) -> int:
@@ -55,4 +57,5 @@ class TeamConfig:
                 max_range=s.max_range,
             ),
             target_model=NearlyConstantVelocity(scenario.dt, scenario.estimator.accel_std),
+            comm_range=scenario.comm_range,
         )

@@ -3,7 +3,8 @@
 A zone estimate carries its kind, center mean and covariance, size (radius ``r`` for sensing,
 jamming strength ``δ2`` for comm), source and the step it was learned. Within a league the
 knowledge bases are merged every step: union by zone identity, and estimates without an
-identity (inferred from observation) merged with a known one of the same kind nearby.
+identity (inferred from observation) merged with a known one of the same kind nearby. A
+provisional guess (``silence``: where a teammate fell silent) gives way to a better estimate.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 
 from resilient_tracking.observation import ZoneClue
 
-Source = Literal["attack", "broadcast", "circle"]
+Source = Literal["attack", "broadcast", "circle", "silence"]
 
 #: Mahalanobis distance under which an unidentified estimate is the same zone as another.
 SAME_ZONE_MAHALANOBIS = 3.0
@@ -81,12 +82,14 @@ class KnowledgeBase:
         if estimate.key in self.zones:
             return False
         if estimate.zone_id is None:
-            for known in self.zones.values():
+            for key, known in list(self.zones.items()):
                 if (
                     known.kind == estimate.kind
                     and known.mahalanobis(estimate) <= SAME_ZONE_MAHALANOBIS
                 ):
-                    return False
+                    if known.source != "silence" or estimate.source == "silence":
+                        return False
+                    del self.zones[key]  # a fitted circle replaces the provisional guess
         self.zones[estimate.key] = estimate
         return True
 

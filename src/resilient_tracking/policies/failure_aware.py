@@ -68,6 +68,8 @@ class FailureAwarePolicy(Policy):
         self.cooldown_until = -1
         #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
         self.last_weights = np.zeros((config.n_robots, 5))
+        #: robots that had no link at the last tick
+        self._silent: set[int] = set()
 
     # ------------------------------------------------------------------ the tick
 
@@ -166,6 +168,8 @@ class FailureAwarePolicy(Policy):
         listeners = [i for i in range(obs.n_robots) if obs.links[i].any()]
         for robot in range(obs.n_robots):
             silent = not obs.links[robot].any()
+            if silent and robot not in self._silent and listeners:
+                self._suspect_jammer(belief, obs, robot, listeners, decision)
             fit = self.watcher.observe(robot, obs.positions[robot], silent)
             if fit is None or not listeners:
                 continue
@@ -188,3 +192,44 @@ class FailureAwarePolicy(Policy):
                     f" residual={fit.residual:.4f} arc={fit.arc:.2f} n={fit.n_samples}",
                 ),
             )
+        self._silent = {i for i in range(obs.n_robots) if not obs.links[i].any()}
+
+    def _suspect_jammer(
+        self,
+        belief: TeamBelief,
+        obs: TeamObservation,
+        robot: int,
+        listeners: list[int],
+        decision: Decision,
+    ) -> None:
+        """A teammate within radio range fell silent: a jammer is near where it is (our
+        addition to Alg. 3). Until its circle is fitted, the league keeps clear of a
+        provisional comm zone there with spread ``silence_std``, unless one is known nearby.
+        """
+        std = self.params.silence_std
+        where = obs.positions[robot]
+        others = obs.positions[listeners]
+        reach = self.config.comm_range
+        if std <= 0 or (
+            reach is not None and np.min(np.linalg.norm(others - where, axis=1)) > reach
+        ):
+            return
+        known = belief.league_knowledge([listeners[0]]).of_kind("comm")
+        if any(np.linalg.norm(z.mean - where) < 2 * std for z in known):
+            return
+        zone = ZoneEstimate(
+            key=f"silence{robot}@{obs.step}",
+            kind="comm",
+            mean=np.array(where, dtype=float),
+            cov=std**2 * np.eye(2),
+            size=self.params.inferred_delta2,
+            persistence="unknown",
+            source="silence",
+            learned_step=obs.step,
+            zone_id=None,
+        )
+        for i in listeners:
+            belief.learn(i, zone)
+        decision.events.append(
+            Event(obs.step, robot, "zone_suspected", f"at ({where[0]:.3f}, {where[1]:.3f})")
+        )
