@@ -96,7 +96,7 @@ def _sog_entries(xp: Any, weight: Any, target: Any, prior: Any, sensor: Any) -> 
 
 def information_function(n_robots: int, n_targets: int) -> ca.Function:
     """``(x⁺ (2,n), weight (n,), targets (2,N), sensor (4,)) → O (3,N)``: the SOG entries
-    ``Σ_i weight_i Hᵀ R⁻¹ H`` exactly as the NLP builds them (``weight = s (1 − φ)``)."""
+    ``Σ_i weight_i Hᵀ R⁻¹ H`` exactly as the NLP builds them (``weight = s (1 − φᵒ)``)."""
     xp = ca.MX.sym("x", 2, n_robots)
     weight = ca.MX.sym("w", n_robots)
     targets = ca.MX.sym("targets", 2, n_targets)
