@@ -134,7 +134,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scenario")
     p.add_argument("--seed", type=int, default=None, help="episode seed (default: the file's)")
     p.add_argument("--out", default=None, help="run folder (default: runs/NAME-POLICY-seedS)")
-    p.add_argument("--policy", choices=POLICY_NAMES, default=None)
+    p.add_argument(
+        "--policy",
+        choices=POLICY_NAMES,
+        default=None,
+        help="vanilla, failure_aware (the paper) or sog (Mayya et al. baseline, reconstructed)",
+    )
     p.add_argument("--steps", type=int, default=None, help="override the number of steps")
     p.add_argument("--no-figures", action="store_true")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

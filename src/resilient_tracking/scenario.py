@@ -241,13 +241,46 @@ class FailureAwareParams(Strict):
     silence_std: float = Field(0.3, ge=0)
 
 
+class SogSlackWeights(Strict):
+    """Penalties on the SOG program's slacks at one extreme of the sensor abundance."""
+
+    #: on ``δ1j``, the excess of ``tr P⁺_j`` over ``ρ1`` (per m²)
+    track: PositiveFloat
+    #: on ``δ2i``, the excess of the failure likelihood ``φ_i`` over ``ρ2``
+    risk: PositiveFloat
+
+
+class SogParams(Strict):
+    """Risk-aware SOG baseline after Mayya et al. (RA-L 2022), rebuilt from its published
+    description (SPEC §5); see ``policies/sog.py``."""
+
+    #: tracking requirement ``tr P⁺_j ≤ ρ1`` per target (m², position block)
+    rho1: PositiveFloat = 0.01
+    #: acceptable risk ``φ_i ≤ ρ2``: risky 0.6, regular 0.3, conservative 0.2
+    rho2: float = Field(0.3, gt=0, lt=1)
+    #: weight on the control effort ``Σ_i ‖u_i‖²``
+    effort: PositiveFloat = 0.05
+    #: slack penalties with every sensor working (aggressive) …
+    abundant: SogSlackWeights = SogSlackWeights(track=100.0, risk=2.0)
+    #: … and with none left (risk-averse); geometric interpolation in between
+    scarce: SogSlackWeights = SogSlackWeights(track=5.0, risk=2000.0)
+    #: attack rate ``κ f_act`` (1/s) the team assumes for a known zone (clues do not carry it)
+    hazard_rate: PositiveFloat = 1.0
+    #: window (s) of the safety requirement: ``φ`` is the chance of an attack when staying
+    #: at ``x`` this long, about the time a target of the shipped scenarios takes to cross a zone
+    risk_window: PositiveFloat = 10.0
+    #: steps over which the SOG weighs each sensor by its survival (1: the planned step)
+    survival_steps: int = Field(1, ge=1, le=10_000)
+
+
 class PolicySpec(Strict):
-    name: Literal["vanilla", "failure_aware"] = "failure_aware"
+    name: Literal["vanilla", "failure_aware", "sog"] = "failure_aware"
     vanilla: VanillaParams = VanillaParams()
     failure_aware: FailureAwareParams = FailureAwareParams()
+    sog: SogParams = SogParams()
 
 
-POLICY_NAMES: tuple[str, ...] = ("vanilla", "failure_aware")
+POLICY_NAMES: tuple[str, ...] = ("vanilla", "failure_aware", "sog")
 
 
 # ---------------------------------------------------------------------------- scenario

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.policies.failure_aware import FailureAwarePolicy
+from resilient_tracking.policies.sog import SogPolicy
 from resilient_tracking.policies.vanilla import VanillaPolicy
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.team_config import TeamConfig
 
-__all__ = ["Decision", "FailureAwarePolicy", "Policy", "VanillaPolicy", "make_policy"]
+__all__ = ["Decision", "FailureAwarePolicy", "Policy", "SogPolicy", "VanillaPolicy", "make_policy"]
 
 
 def make_policy(name: str, scenario: Scenario, config: TeamConfig) -> Policy:
@@ -17,4 +18,6 @@ def make_policy(name: str, scenario: Scenario, config: TeamConfig) -> Policy:
         return VanillaPolicy(config, scenario.policy.vanilla)
     if name == "failure_aware":
         return FailureAwarePolicy(config, scenario.policy.failure_aware)
+    if name == "sog":
+        return SogPolicy(config, scenario.policy.sog)
     raise ValueError(f"policy: unknown name {name!r}")

@@ -1,0 +1,113 @@
+"""Risk-aware SOG baseline after Mayya et al., RA-L 2022, "Adaptive and Risk-Aware Target
+Tracking with Heterogeneous Robot Teams" (SPEC §5).
+
+**A reconstruction.** The original program could not be consulted; this policy is rebuilt
+from its published description as SPEC §5 restates it, and the choices it had to make are
+listed in ``docs/paper-map.md``. Per league, every tick (program in ``planning/sog_problem``):
+
+* the failure likelihood ``φ_i(x)`` of each robot near the sensing zones the league *knows*
+  (belief only) is the zone hazard of SPEC §1.1 accumulated over ``risk_window`` seconds;
+* the safety-aware observability Gramian ``O_j = Σ_i (1 − φᵒ_i) Hᵀ R⁻¹ H`` weighs each
+  sensor's information by its probability ``1 − φᵒ_i`` of surviving the planned step
+  (``survival_steps``), and ``P⁺_j = (P⁻_j⁻¹ + O_j)⁻¹``;
+* the league minimises control effort plus penalised slacks on ``tr P⁺_j ≤ ρ1`` and
+  ``φ_i ≤ ρ2``; the slack penalties follow the **sensor abundance** ``a`` (fraction of the
+  team's robots whose sensor works), geometrically from the ``scarce`` weights at ``a = 0``
+  (risk-averse) to the ``abundant`` ones at ``a = 1`` (aggressive).
+
+Unlike the failure-aware policy it has no comm-zone reasoning, no circular evasion or circle
+inference and no cool-down; it learns sensing zones from attack clues and shares them within a
+league. A robot cut off from the others plans alone (mode ``individual``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from resilient_tracking.belief.knowledge import KnowledgeBase
+from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.events import Event
+from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.planner import LeaguePlanner
+from resilient_tracking.planning.sog_problem import SogInputs, SogPlanner, zone_rows
+from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.scenario import SogParams
+from resilient_tracking.team_config import TeamConfig
+
+
+def abundance_weights(params: SogParams, abundance: float) -> tuple[float, float]:
+    """Slack penalties ``(w_track, w_risk)`` at sensor abundance ``a ∈ [0, 1]``:
+    ``w = w_scarce^(1−a) · w_abundant^a``."""
+    a = min(max(abundance, 0.0), 1.0)
+    lo, hi = params.scarce, params.abundant
+    return lo.track ** (1 - a) * hi.track**a, lo.risk ** (1 - a) * hi.risk**a
+
+
+class SogPolicy(Policy):
+    name = "sog"
+    learns_zones = True
+
+    def __init__(
+        self,
+        config: TeamConfig,
+        params: SogParams,
+        planner: LeaguePlanner | None = None,
+        sog_planner: SogPlanner | None = None,
+    ):
+        super().__init__(config, planner)
+        self.params = params
+        self.sog_planner = sog_planner or SogPlanner()
+        #: ``(w_track, w_risk)`` used at the last tick (for inspection and tests)
+        self.last_weights = abundance_weights(params, 1.0)
+
+    def risk_scale(self) -> float:
+        """``c = κ f_act T_risk`` in the safety requirement's ``φ = 1 − exp(−c pdf)``."""
+        return self.params.hazard_rate * self.params.risk_window
+
+    def survival_scale(self) -> float:
+        """``c = κ f_act T_survival`` in the SOG's survival weights ``1 − φᵒ``."""
+        return self.params.hazard_rate * self.params.survival_steps * self.config.dt
+
+    @staticmethod
+    def known_zones(knowledge: KnowledgeBase) -> np.ndarray:
+        """Rows of the sensing zones a league knows (comm zones play no part in SOG)."""
+        zones = knowledge.of_kind("sensing")
+        return zone_rows([z.mean for z in zones], [z.cov for z in zones])
+
+    def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
+        m = obs.n_robots
+        decision = Decision(controls=np.zeros((m, 2)), modes=["league"] * m)
+        w_track, w_risk = abundance_weights(self.params, float(np.mean(obs.sensing_ok)))
+        self.last_weights = (w_track, w_risk)
+        for k, robots in enumerate(belief.leagues):
+            sensing = obs.sensing_ok[robots].astype(float)
+            base = self.tracking_inputs(belief, obs, robots, k, np.zeros(4), sensing)
+            q = SogInputs(
+                positions=base.positions,
+                sensing=base.sensing,
+                targets=base.targets,
+                prior_info=base.prior_info,
+                sensor=base.sensor,
+                dt=base.dt,
+                u_lower=base.u_lower,
+                u_upper=base.u_upper,
+                zones=self.known_zones(belief.league_knowledge(robots)),
+                rho1=self.params.rho1,
+                rho2=self.params.rho2,
+                w_effort=self.params.effort,
+                w_track=w_track,
+                w_risk=w_risk,
+                risk_scale=self.risk_scale(),
+                survival_scale=self.survival_scale(),
+            )
+            result = self.sog_planner.plan(tuple(robots), q)
+            decision.plans.append(result)
+            if result.fallback:
+                for i in robots:
+                    decision.events.append(
+                        Event(obs.step, i, "solver_fallback", f"{result.fallback}: {result.status}")
+                    )
+            decision.controls[robots] = result.controls
+            for i in robots:
+                decision.modes[i] = "league" if len(robots) > 1 else "individual"
+        return decision
