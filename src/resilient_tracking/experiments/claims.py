@@ -94,9 +94,9 @@ def only_conservative_survives(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
         out.append(
             Claim(
                 exp.name,
-                f"{method}: the conservative setting keeps a sensing robot to the end "
-                "and the risky one does not",
-                share["conservative"] == 1.0 and share["risky"] < 0.5,
+                f"{method}: in most seeds the conservative setting keeps a sensing robot to "
+                "the end and the risky one does not",
+                share["conservative"] > 0.5 > share["risky"],
                 "share of seeds with a sensing robot alive at the end: "
                 + ", ".join(f"{k} {v:.0%}" for k, v in share.items()),
             )
