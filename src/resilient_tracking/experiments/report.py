@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import os
 import platform
+import subprocess
 from collections import defaultdict
 from pathlib import Path
 
@@ -122,6 +123,21 @@ def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[s
     return "\n\n".join(parts) + "\n", claims
 
 
+def _source_revision() -> str:
+    """The git commit of the code, when run from a checkout (empty otherwise)."""
+    try:
+        done = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=Path(__file__).parent,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return f" (commit {done.stdout.strip()})" if done.returncode == 0 else ""
+
+
 def write_report(
     experiments: list[Experiment], tasks: dict[str, list[Task]], out: Path, command: str
 ) -> Path:
@@ -136,7 +152,8 @@ def write_report(
     lines = [
         "# Reproduction report",
         "",
-        f"Produced by `{command}` with resilient-tracking {__version__}, CasADi "
+        f"Produced by `{command}` with resilient-tracking {__version__}{_source_revision()}, "
+        "CasADi "
         f"{casadi.CasadiMeta.version()}, Python {platform.python_version()} on "
         f"{platform.machine()} ({os.cpu_count()} cores).",
         "",
