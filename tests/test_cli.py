@@ -22,9 +22,9 @@ def bad_copy(tmp_path, mutate):
 
 def test_validate_accepts_every_shipped_scenario(capsys):
     paths = sorted(str(p) for p in SCENARIOS.glob("*.yaml"))
-    assert len(paths) == 6
+    assert len(paths) == 7
     assert main(["validate", *paths]) == 0
-    assert capsys.readouterr().out.count(": ok") == 6
+    assert capsys.readouterr().out.count(": ok") == 7
 
 
 def test_validate_names_a_sigma_that_is_not_positive_definite(tmp_path, capsys):
