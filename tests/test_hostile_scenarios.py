@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 import re
 import tempfile
 from pathlib import Path
@@ -40,20 +39,6 @@ from resilient_tracking.scenario import (
     parse_scenario,
 )
 from resilient_tracking.sim.episode import run_episode
-
-settings.register_profile(
-    "ci",
-    max_examples=60,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-)
-settings.register_profile(
-    "thorough",
-    max_examples=2000,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-)
-settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 BASES = ("sensing-temp", "combined-temp", "comm-perm")
 TOP_LEVEL = set(Scenario.model_fields) | {"<root>", "<yaml>", "<file>"}

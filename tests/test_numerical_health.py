@@ -101,8 +101,9 @@ def test_a_drifted_estimate_is_repaired_with_an_event(monkeypatch):
     events = result["events"]
     repaired = events[events["event"] == "covariance_repaired"]
     assert len(repaired) == 1
-    assert repaired["step"].iloc[0] == 39 and "target 1: not positive definite" in (
-        repaired["detail"].iloc[0]
+    assert (
+        repaired["step"].iloc[0] == 39
+        and "target 1: not positive definite" in (repaired["detail"].iloc[0])
     )
     targets = result["targets"]
     assert np.all(targets[["var_x", "var_y"]].to_numpy() > 0)
