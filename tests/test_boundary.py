@@ -7,6 +7,7 @@ import inspect
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import resilient_tracking
 from conftest import shipped
@@ -17,15 +18,68 @@ BELIEF_SIDE = ("belief", "planning", "policies", "models")
 BELIEF_FILES = ("team.py", "team_config.py", "observation.py")
 
 
-def imported_modules(path: Path) -> set[str]:
+#: Module prefixes the belief side must never import.
+FORBIDDEN_MODULES = ("resilient_tracking.world", "resilient_tracking.sim")
+#: Truth classes whose names must not even appear on the belief side (e.g. in type hints).
+TRUTH_NAMES = {
+    "World",
+    "TrueZone",
+    "TargetTruth",
+    "Failure",
+    "GaussianHazardModel",
+    "DiskHazardModel",
+}
+
+
+def _package_of(path: Path) -> str:
+    """Dotted package of a module file under ``src/`` (``resilient_tracking.belief``)."""
+    rel = path.resolve().relative_to(PACKAGE.parent.resolve()).with_suffix("")
+    parts = list(rel.parts)
+    return ".".join(parts[:-1])
+
+
+def imported_modules(path: Path, package: str | None = None) -> set[str]:
+    """Every module a file imports: absolute, relative (resolved), ``from pkg import module``
+    (as ``pkg.module``), and string arguments of ``importlib.import_module``/``__import__``."""
     tree = ast.parse(path.read_text())
     out: set[str] = set()
+    if package is None:
+        inside = path.resolve().is_relative_to(PACKAGE.resolve())
+        package = _package_of(path) if inside else ""
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             out |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.module:
-            out.add(node.module)
+        elif isinstance(node, ast.ImportFrom):
+            module = node.module or ""
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                module = ".".join([*base, module] if module else base)
+            if module:
+                out.add(module)
+                out |= {f"{module}.{a.name}" for a in node.names}
+        elif isinstance(node, ast.Call):
+            func = node.func
+            name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            if name in ("import_module", "__import__") and node.args:
+                arg = node.args[0]
+                if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                    out.add(arg.value)
     return out
+
+
+def truth_names_used(path: Path) -> set[str]:
+    """Names of truth classes referenced anywhere in a file (code, hints, strings of hints)."""
+    tree = ast.parse(path.read_text())
+    hints = [
+        hint
+        for n in ast.walk(tree)
+        for hint in (getattr(n, "annotation", None), getattr(n, "returns", None))
+        if isinstance(hint, ast.Constant) and isinstance(hint.value, str)
+    ]
+    trees = [tree, *(ast.parse(h.value, mode="eval") for h in hints)]
+    used = {n.id for t in trees for n in ast.walk(t) if isinstance(n, ast.Name)}
+    used |= {n.attr for t in trees for n in ast.walk(t) if isinstance(n, ast.Attribute)}
+    return used & TRUTH_NAMES
 
 
 def belief_side_files() -> list[Path]:
@@ -36,9 +90,7 @@ def belief_side_files() -> list[Path]:
 def test_belief_side_never_imports_world_or_sim():
     offenders = {
         str(p.relative_to(PACKAGE)): sorted(
-            m
-            for m in imported_modules(p)
-            if m.startswith(("resilient_tracking.world", "resilient_tracking.sim"))
+            m for m in imported_modules(p) if m.startswith(FORBIDDEN_MODULES)
         )
         for p in belief_side_files()
     }
@@ -46,44 +98,130 @@ def test_belief_side_never_imports_world_or_sim():
     assert {k: v for k, v in offenders.items() if v} == {}
 
 
-def test_the_scan_would_catch_an_offender(tmp_path):
+def test_belief_side_never_names_a_truth_class():
+    offenders = {str(p.relative_to(PACKAGE)): truth_names_used(p) for p in belief_side_files()}
+    assert {k: v for k, v in offenders.items() if v} == {}
+
+
+@pytest.mark.parametrize(
+    ("source", "caught"),
+    [
+        ("from resilient_tracking.world.zones import TrueZone\n", "resilient_tracking.world.zones"),
+        ("import resilient_tracking.world as w\n", "resilient_tracking.world"),
+        ("from resilient_tracking import world\n", "resilient_tracking.world"),
+        ("from ..world import World\n", "resilient_tracking.world"),
+        ("from ..sim.episode import run_episode\n", "resilient_tracking.sim.episode"),
+        (
+            "import importlib\nm = importlib.import_module('resilient_tracking.world.world')\n",
+            "resilient_tracking.world.world",
+        ),
+    ],
+)
+def test_the_scan_would_catch_an_offender(tmp_path, source, caught):
     bad = tmp_path / "bad.py"
-    bad.write_text("from resilient_tracking.world.zones import TrueZone\n")
-    assert "resilient_tracking.world.zones" in imported_modules(bad)
+    bad.write_text(source)
+    found = imported_modules(bad, package="resilient_tracking.belief")  # as if in belief/
+    assert caught in found
+    assert any(m.startswith(FORBIDDEN_MODULES) for m in found)
+
+
+def test_the_name_scan_would_catch_a_truth_type_hint(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f(zone: 'TrueZone', w: world.World) -> None: ...\nx: TargetTruth\n")
+    assert truth_names_used(bad) == {"World", "TargetTruth", "TrueZone"}
+
+
+def reachable(*roots: object, limit: int = 200_000) -> list[object]:
+    """Every object reachable from ``roots`` through attributes, containers and dataclass fields
+    (numpy arrays are leaves; modules, classes and functions are not followed)."""
+    seen: dict[int, object] = {}
+    stack = list(roots)
+    while stack and len(seen) < limit:
+        obj = stack.pop()
+        if id(obj) in seen or isinstance(obj, (str, bytes, int, float, bool, type(None))):
+            continue
+        if inspect.ismodule(obj) or inspect.isclass(obj) or inspect.isroutine(obj):
+            continue
+        seen[id(obj)] = obj
+        if isinstance(obj, np.ndarray):
+            if obj.dtype == object:
+                stack.extend(obj.ravel().tolist())
+            continue
+        if isinstance(obj, dict):
+            stack.extend(obj.keys())
+            stack.extend(obj.values())
+        elif isinstance(obj, (list, tuple, set, frozenset)):
+            stack.extend(obj)
+        if hasattr(obj, "__dict__"):
+            stack.extend(vars(obj).values())
+        for slot in getattr(type(obj), "__slots__", ()):
+            if hasattr(obj, slot):
+                stack.append(getattr(obj, slot))
+    assert len(seen) < limit, "object graph too large to check"
+    return list(seen.values())
+
+
+def truth_objects(objects: list[object]) -> list[str]:
+    """Objects of world or simulator classes, or scenario zone specs (truth's source)."""
+    from resilient_tracking.scenario import CommZone, Scenario, SensingZone
+
+    bad = []
+    for obj in objects:
+        module = getattr(type(obj), "__module__", "") or ""
+        if module.startswith(FORBIDDEN_MODULES) or type(obj).__name__ in TRUTH_NAMES:
+            bad.append(f"{module}.{type(obj).__name__}")
+        elif isinstance(obj, (Scenario, SensingZone, CommZone)):
+            bad.append(type(obj).__name__)
+    return bad
 
 
 class _Spy:
-    """Records every object a policy receives."""
+    """Records everything a policy receives (deeply), and what the policy holds."""
 
     def __init__(self, policy):
         self.policy = policy
-        self.seen: list[object] = []
+        self.seen: dict[int, object] = {}
+        self.calls = 0
 
     def act(self, belief, obs):
-        self.seen += [belief, obs, *vars(belief).values(), *vars(obs).values()]
+        self.calls += 1
+        if self.calls % 10 == 1:  # every tenth tick is enough and keeps the walk cheap
+            for obj in reachable(belief, obs, self.policy):
+                self.seen[id(obj)] = obj
         return self.policy.act(belief, obs)
 
 
-def test_policy_receives_no_world_object_and_no_true_center(monkeypatch):
+@pytest.fixture
+def spies(monkeypatch):
     import resilient_tracking.team as team_module
 
-    spies: list[_Spy] = []
+    found: list[_Spy] = []
     original = team_module.Team.__init__
 
     def spying_init(self, policy, initial_estimate):
         original(self, policy, initial_estimate)
         spy = _Spy(self.policy)
-        spies.append(spy)
+        found.append(spy)
         self.policy = spy  # type: ignore[assignment]
 
     monkeypatch.setattr(team_module.Team, "__init__", spying_init)
-    result = run_episode(shipped("sensing-perm").with_overrides(steps=150), seed=1)
+    return found
+
+
+@pytest.mark.parametrize(
+    ("name", "policy"),
+    [
+        ("sensing-perm", "failure_aware"),
+        ("comm-perm", "failure_aware"),
+        ("combined-temp", "vanilla"),
+    ],
+)
+def test_policy_receives_no_world_object_and_no_true_center(spies, name, policy):
+    result = run_episode(shipped(name).with_overrides(steps=150), policy=policy, seed=1)
     true_centers = result["zones"][["true_x", "true_y"]].to_numpy()
-    seen = spies[0].seen
-    assert seen
-    for obj in seen:
-        module = inspect.getmodule(type(obj))
-        assert module is None or not module.__name__.startswith("resilient_tracking.world")
+    seen = list(spies[0].seen.values())
+    assert spies[0].calls == 150 and len(seen) > 50
+    assert truth_objects(seen) == []
     # no array a policy sees holds a drawn true center
     arrays = [o for o in seen if isinstance(o, np.ndarray) and o.dtype.kind == "f"]
     assert arrays
@@ -91,3 +229,12 @@ def test_policy_receives_no_world_object_and_no_true_center(monkeypatch):
         values = arr.ravel()
         for cx, cy in true_centers:
             assert not (np.any(values == cx) and np.any(values == cy))
+
+
+def test_the_runtime_check_would_catch_a_world_object():
+    from resilient_tracking.world import World
+
+    world = World(shipped("sensing-perm"), seed=0)
+    hidden = {"cache": [(1, world.zones[0])]}  # a true zone two levels down
+    assert any("TrueZone" in b for b in truth_objects(reachable(hidden)))
+    assert any("Scenario" in b for b in truth_objects(reachable([shipped("sensing-perm")])))

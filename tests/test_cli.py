@@ -22,7 +22,7 @@ def bad_copy(tmp_path, mutate):
 
 def test_validate_accepts_every_shipped_scenario(capsys):
     paths = sorted(str(p) for p in SCENARIOS.glob("*.yaml"))
-    assert len(paths) >= 9  # the six of the paper and the three benchmarks
+    assert len(paths) == 10  # the paper's six, three benchmarks, the soak
     assert main(["validate", *paths]) == 0
     assert capsys.readouterr().out.count(": ok") == len(paths)
 

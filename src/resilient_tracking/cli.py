@@ -44,24 +44,50 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.steps < 1:
             print("error: --steps: must be at least 1", file=sys.stderr)
             return 1
-        scenario = scenario.with_overrides(steps=args.steps)
+        try:
+            scenario = scenario.with_overrides(steps=args.steps)
+        except ScenarioError as err:
+            print(f"error: --steps: {err}", file=sys.stderr)
+            return 1
     if args.seed is not None and args.seed < 0:
         print("error: --seed: must be non-negative", file=sys.stderr)
         return 1
 
     from resilient_tracking.sim.episode import run_episode
-    from resilient_tracking.sim.records import write_run
+    from resilient_tracking.sim.records import is_run_folder, write_run
     from resilient_tracking.viz import make_run_figures
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
     out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}")
-    with tqdm(
-        total=scenario.steps, desc=f"{scenario.name} [{policy}]", unit="step", disable=args.quiet
-    ) as bar:
-        result = run_episode(scenario, policy=policy, seed=seed, progress=lambda n: bar.update(n))
-    write_run(result, out)
-    figures = [] if args.no_figures else make_run_figures(out)
+    if out.exists() and not is_run_folder(out):
+        print(f"error: --out: {out} exists and is not a run folder", file=sys.stderr)
+        return 1
+    figures: list[Path] = []
+
+    def finish(folder: Path) -> None:
+        if not args.no_figures:
+            figures.extend(make_run_figures(folder))
+
+    try:
+        with tqdm(
+            total=scenario.steps,
+            desc=f"{scenario.name} [{policy}]",
+            unit="step",
+            disable=args.quiet,
+        ) as bar:
+            result = run_episode(
+                scenario, policy=policy, seed=seed, progress=lambda n: bar.update(n)
+            )
+        write_run(result, out, finish=finish)
+    except Exception as err:  # report, never a traceback; nothing is left half-written
+        logging.getLogger(__name__).debug("run failed", exc_info=True)
+        print(
+            f"error: {args.scenario}: run failed ({type(err).__name__}: {err}); "
+            f"nothing written to {out} (rerun with -vv for the traceback)",
+            file=sys.stderr,
+        )
+        return 2
     team = result["team"]
     events = result["events"]
     attacks = int((events["event"] == "attack").sum()) if len(events) else 0

@@ -14,16 +14,44 @@ from typing import Annotated, Any, Literal
 import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import Strict as StrictMode
 
-Vec2 = tuple[float, float]
-Matrix2 = tuple[Vec2, Vec2]
+#: Largest magnitude (m, m/s) of a coordinate; beyond it, products of positions overflow.
+MAX_COORDINATE = 1e6
+#: Largest magnitude (m²) of a covariance entry, and the smallest eigenvalue ratio λmin/λmax: a
+#: flatter Σ is numerically singular for the chance constraints and the Mahalanobis tests.
+MAX_VARIANCE = 1e12
+MIN_COVARIANCE_RATIO = 1e-9
+#: Upper bounds on sizes: the league NLP grows with robots × targets × zones, so a team beyond
+#: these is refused up front rather than left to exhaust memory while the problem is built.
+MAX_ROBOTS = 64
+MAX_TARGETS = 64
+MAX_ROBOTS_X_TARGETS = 1024
+MAX_ZONES = 32
+MAX_STEPS = 100_000
+MAX_DT = 10.0
+#: Recorded rows (``steps × (robots + targets)``) an episode may hold in memory.
+MAX_RECORDED_ROWS = 5_000_000
+
+#: A number inside a list: strict (an int or a float, never a bool or a string) even where the
+#: list itself is lax (``StrictMode(False)`` lets a YAML list stand for a tuple).
+Number = Annotated[float, StrictMode()]
+#: A coordinate or velocity component: a strict number of bounded size.
+Coordinate = Annotated[float, StrictMode(), Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+Vec2 = Annotated[tuple[Coordinate, Coordinate], StrictMode(False)]
+Row2 = Annotated[tuple[Number, Number], StrictMode(False)]
+Matrix2 = Annotated[tuple[Row2, Row2], StrictMode(False)]
 PositiveFloat = Annotated[float, Field(gt=0)]
 
 
 class Strict(BaseModel):
-    """Base: unknown keys are errors, NaN and infinity are rejected."""
+    """Base: unknown keys are errors, NaN and infinity are rejected, and values are strict.
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    Strict mode means a number field takes an int or a float but never a bool (YAML ``yes``) or a
+    string (``"0.1"``), a bool field takes only ``true``/``false``, an int field only an integer.
+    """
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True, strict=True)
 
 
 # ---------------------------------------------------------------------------- geometry
@@ -141,22 +169,21 @@ class DiskHazard(Strict):
 Hazard = Annotated[GaussianHazard | DiskHazard, Field(discriminator="model")]
 
 
-#: A zone covariance must be well inside what float arithmetic can handle: entries at most
-#: MAX_SIGMA m², smallest eigenvalue above MIN_SIGMA_EIGENVALUE (relative to the largest).
-MAX_SIGMA = 1e6
-MIN_SIGMA_EIGENVALUE = 1e-9
-
-
 def _check_covariance(value: Matrix2) -> Matrix2:
     m = np.asarray(value, dtype=float)
+    if np.abs(m).max() > MAX_VARIANCE:
+        raise ValueError(f"entries must not exceed {MAX_VARIANCE:g} in magnitude")
     if not np.allclose(m, m.T, rtol=0, atol=1e-12):
         raise ValueError("must be symmetric")
-    if np.abs(m).max() > MAX_SIGMA:
-        raise ValueError(f"entries must be at most {MAX_SIGMA:g} m² in size")
     eig = np.linalg.eigvalsh(m)
-    if eig.min() <= MIN_SIGMA_EIGENVALUE * max(eig.max(), 1.0):
+    if eig.min() <= 0:
         raise ValueError("must be positive definite")
-    sym = (m + m.T) / 2
+    if eig.min() < MIN_COVARIANCE_RATIO * eig.max():
+        raise ValueError(
+            f"is too close to singular (eigenvalue ratio {eig.min() / eig.max():.3g} is below "
+            f"{MIN_COVARIANCE_RATIO:g})"
+        )
+    sym = m / 2 + m.T / 2
     return ((sym[0, 0], sym[0, 1]), (sym[1, 0], sym[1, 1]))
 
 
@@ -290,14 +317,15 @@ class Scenario(Strict):
     name: str = "scenario"
     description: str = ""
     seed: int = Field(0, ge=0)
-    dt: PositiveFloat = 0.1
-    steps: int = Field(300, ge=1, le=1_000_000)
+    #: at most 10 s: beyond it one step moves targets out of any sensor's reach
+    dt: float = Field(0.1, gt=0, le=MAX_DT)
+    steps: int = Field(300, ge=1, le=MAX_STEPS)
     workspace: Workspace = Workspace()
     sensor: SensorSpec = SensorSpec()
     estimator: EstimatorSpec = EstimatorSpec()
-    robots: list[RobotSpec] = Field(min_length=1, max_length=500)
-    targets: list[TargetSpec] = Field(min_length=1, max_length=500)
-    zones: list[Zone] = Field(default_factory=list, max_length=200)
+    robots: list[RobotSpec] = Field(min_length=1, max_length=MAX_ROBOTS)
+    targets: list[TargetSpec] = Field(min_length=1, max_length=MAX_TARGETS)
+    zones: list[Zone] = Field(default_factory=list, max_length=MAX_ZONES)
     comm_range: PositiveFloat | None = None
     policy: PolicySpec = PolicySpec()
 
@@ -309,6 +337,17 @@ class Scenario(Strict):
             out.append(f"workspace.xmax: must exceed xmin={ws.xmin} (got {ws.xmax})")
         if ws.ymin >= ws.ymax:
             out.append(f"workspace.ymax: must exceed ymin={ws.ymin} (got {ws.ymax})")
+        n, m = len(self.robots), len(self.targets)
+        if n * m > MAX_ROBOTS_X_TARGETS:
+            out.append(
+                f"robots: {n} robots × {m} targets exceeds the supported "
+                f"{MAX_ROBOTS_X_TARGETS} robot-target pairs (got {n} × {m} = {n * m})"
+            )
+        if self.steps * (n + m) > MAX_RECORDED_ROWS:
+            out.append(
+                f"steps: {self.steps} steps × {n + m} robots and targets would record more than "
+                f"{MAX_RECORDED_ROWS} rows; split the run (got {self.steps})"
+            )
         for i, robot in enumerate(self.robots):
             if not ws.contains(robot.start):
                 out.append(f"robots.{i}.start: outside the workspace (got {list(robot.start)})")
@@ -380,7 +419,14 @@ def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
 def _format_pydantic(err: ValidationError, data: Any) -> list[str]:
     out = []
     for e in err.errors():
-        path = _field_path(e["loc"], data)
+        loc = e["loc"]
+        key = loc[-1] if loc else None
+        if e["type"] == "extra_forbidden" and not (isinstance(key, str) and key.isidentifier()):
+            # a key that cannot be part of a dotted path: name its mapping, then the key
+            path, msg = _field_path(loc[:-1], data), f"unknown key {_short(loc[-1], 40)}"
+            out.append(f"{path}: {msg} (got {_short(e.get('input'))})")
+            continue
+        path = _field_path(loc, data)
         msg = e["msg"].removeprefix("Value error, ")
         out.append(f"{path}: {msg} (got {_short(e.get('input'))})")
     return out
@@ -394,6 +440,8 @@ def parse_scenario(data: Any, source: str = "<scenario>") -> Scenario:
         scenario = Scenario.model_validate(data)
     except ValidationError as err:
         raise ScenarioError(source, _format_pydantic(err, data)) from None
+    except RecursionError:
+        raise ScenarioError(source, ["<root>: nested too deeply to be a scenario"]) from None
     problems = scenario.problems()
     if problems:
         raise ScenarioError(source, problems)
@@ -413,4 +461,6 @@ def load_scenario(path: str | Path) -> Scenario:
         data = yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise ScenarioError(str(path), [f"<yaml>: not valid YAML ({err})"]) from None
+    except RecursionError:
+        raise ScenarioError(str(path), ["<yaml>: nested too deeply to be a scenario"]) from None
     return parse_scenario(data, str(path))

@@ -7,11 +7,14 @@ Each tick (SPEC §2–3):
 3. league estimates follow the robots: a league that gathers robots from several previous
    leagues fuses their estimates by covariance intersection, a league that split keeps a copy;
 4. each league's EKF predicts to now and updates with its sensing members' measurements;
-5. knowledge is merged within each league.
+5. every league covariance is checked (symmetric positive definite) and repaired with a
+   ``covariance_repaired`` event if it drifted (:mod:`resilient_tracking.belief.health`);
+6. knowledge is merged within each league.
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import replace
 from typing import Literal
 
@@ -20,10 +23,13 @@ import numpy as np
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.fusion import fuse_estimates
+from resilient_tracking.belief.health import repair_covariances
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.events import TEAM, Event
 from resilient_tracking.models.graph import components
 from resilient_tracking.observation import TeamObservation
+
+log = logging.getLogger(__name__)
 
 
 class TeamBelief:
@@ -44,6 +50,8 @@ class TeamBelief:
         self.leagues: list[list[int]] = [list(range(n_robots))]
         self.league_of = np.zeros(n_robots, dtype=int)
         self.estimates: list[TargetEstimate] = [initial]  # one per league
+        #: replaces a covariance that stopped being finite (the prior spread of target 0)
+        self._prior_block = initial.cov[0].copy()
         self.knowledge: list[KnowledgeBase] = [KnowledgeBase() for _ in range(n_robots)]
         self.sensing_ok = np.ones(n_robots, dtype=bool)
         self.last_step: int | None = None
@@ -69,8 +77,34 @@ class TeamBelief:
                 self.estimates[k] = self.ekf.update(
                     self.estimates[k], obs.positions[sensing], obs.measurements[sensing]
                 )
+        events += self._check_health(obs.step)
         if self.learns_zones:
             self._share_knowledge()
+        return events
+
+    def _check_health(self, step: int) -> list[Event]:
+        """Keep every league covariance symmetric positive definite; an event per repair."""
+        events: list[Event] = []
+        for k, estimate in enumerate(self.estimates):
+            cov, repairs = repair_covariances(estimate.cov, fallback=self._prior_block)
+            if not repairs:
+                continue
+            self.estimates[k] = TargetEstimate(estimate.mean, cov)
+            for r in repairs:
+                log.warning(
+                    "league %s, step %d: repaired covariance, %s",
+                    self.leagues[k],
+                    step,
+                    r.describe(),
+                )
+                events.append(
+                    Event(
+                        step,
+                        TEAM,
+                        "covariance_repaired",
+                        f"league {self.leagues[k]} {r.describe()}",
+                    )
+                )
         return events
 
     def learn(self, robot: int, estimate: ZoneEstimate) -> None:

@@ -15,6 +15,8 @@ FloatArray = NDArray[np.float64]
 
 #: Distances below this are treated as this (the bearing is undefined at zero range).
 MIN_RANGE = 1e-3
+#: Cap on ``shape · d`` in the noise model: ``exp(600)`` keeps variances finite, far from overflow.
+MAX_EXPONENT = 600.0
 
 
 def wrap_angle(a: FloatArray | float) -> FloatArray | float:
@@ -42,10 +44,11 @@ class RangeBearingSensor:
     def noise_variance(self, distance: FloatArray | float) -> FloatArray:
         """Per-channel variance ``[R_range(d), R_bearing(d)]``."""
         d = np.asarray(distance, dtype=float)
+        # capped exponent: far beyond the sensor's reach the variance is huge but finite
         return np.stack(
             [
-                np.exp(self.range_shape * d) / self.range_peak,
-                np.exp(self.bearing_shape * d) / self.bearing_peak,
+                np.exp(np.minimum(self.range_shape * d, MAX_EXPONENT)) / self.range_peak,
+                np.exp(np.minimum(self.bearing_shape * d, MAX_EXPONENT)) / self.bearing_peak,
             ],
             axis=-1,
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.policies.failure_aware import FailureAwarePolicy
 from resilient_tracking.policies.sog import SogPolicy
@@ -12,12 +13,17 @@ from resilient_tracking.team_config import TeamConfig
 __all__ = ["Decision", "FailureAwarePolicy", "Policy", "SogPolicy", "VanillaPolicy", "make_policy"]
 
 
-def make_policy(name: str, scenario: Scenario, config: TeamConfig) -> Policy:
-    """The policy called ``name`` with its parameters from the scenario."""
+def make_policy(
+    name: str, scenario: Scenario, config: TeamConfig, planner: LeaguePlanner | None = None
+) -> Policy:
+    """The policy called ``name`` with its parameters from the scenario.
+
+    ``planner`` replaces the default :class:`LeaguePlanner` (e.g. one with a fault hook).
+    """
     if name == "vanilla":
-        return VanillaPolicy(config, scenario.policy.vanilla)
+        return VanillaPolicy(config, scenario.policy.vanilla, planner)
     if name == "failure_aware":
-        return FailureAwarePolicy(config, scenario.policy.failure_aware)
+        return FailureAwarePolicy(config, scenario.policy.failure_aware, planner)
     if name == "sog":
         return SogPolicy(config, scenario.policy.sog)
     raise ValueError(f"policy: unknown name {name!r}")

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import logging
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,7 +18,10 @@ from resilient_tracking.planning.league_problem import (
     Structure,
 )
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
+from resilient_tracking.planning.safe_action import safe_action
 from resilient_tracking.team_config import TeamConfig
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -82,18 +86,42 @@ class Policy(ABC):
     def solve(
         self, robots: list[int], q: ProblemInputs, step: int, decision: Decision
     ) -> np.ndarray:
-        """Plan for ``robots``; record the result and any fallback in ``decision``."""
+        """Plan for ``robots``; record the result and any fallback in ``decision``.
+
+        When no solver attempt succeeded (or the planner itself failed), the robots take the
+        :func:`~resilient_tracking.planning.safe_action.safe_action`: escape a known zone whose
+        constraint they violate, else hold. Every fallback is an event per robot.
+        """
         structure = Structure(
             n_robots=len(robots),
             n_targets=len(q.targets),
             n_sensing_zones=len(q.sensing_zones),
             n_comm_zones=len(q.comm_zones),
         )
-        result = self.planner.plan(structure, tuple(robots), q)
-        decision.plans.append(result)
-        if result.fallback:
+        try:
+            result = self.planner.plan(structure, tuple(robots), q)
+        except Exception as err:  # the ladder must hold even if the planner breaks
+            log.warning("league %s: planner raised %s: %s", robots, type(err).__name__, err)
+            result = PlanResult(
+                controls=np.zeros((len(robots), 2)),
+                status=f"planner exception: {type(err).__name__}",
+                success=False,
+                iterations=0,
+                solve_ms=0.0,
+                fallback="safe",
+            )
+        controls = result.controls
+        if not result.success or not np.all(np.isfinite(controls)):
+            controls, actions = safe_action(q)
+            result = replace(result, controls=controls, success=False, fallback="safe")
+            for i, action in zip(robots, actions, strict=True):
+                decision.events.append(
+                    Event(step, i, "solver_fallback", f"safe ({action}): {result.status}")
+                )
+        elif result.fallback:
             for i in robots:
                 decision.events.append(
                     Event(step, i, "solver_fallback", f"{result.fallback}: {result.status}")
                 )
-        return result.controls
+        decision.plans.append(result)
+        return controls

@@ -20,6 +20,7 @@ from resilient_tracking import __version__
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.planner import FaultHook, LeaguePlanner
 from resilient_tracking.policies import make_policy
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
@@ -184,14 +185,20 @@ def run_episode(
     policy: str | None = None,
     seed: int | None = None,
     progress: Callable[[int], object] | None = None,
+    fault_hook: FaultHook | None = None,
 ) -> EpisodeResult:
-    """Run one episode; ``progress`` is called with the number of steps done."""
+    """Run one episode; ``progress`` is called with the number of steps done.
+
+    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`).
+    """
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
     world = World(scenario, seed)
     config = TeamConfig.from_scenario(scenario)
-    team = Team(make_policy(policy_name, scenario, config), initial_estimate(scenario, world, seed))
+    planner = LeaguePlanner(fault_hook=fault_hook)
+    policy_obj = make_policy(policy_name, scenario, config, planner)
+    team = Team(policy_obj, initial_estimate(scenario, world, seed))
     recorder = _Recorder(world)
     for _ in range(scenario.steps):
         obs = world.observe()

@@ -4,14 +4,17 @@ A run folder holds ``team.parquet`` (a row per step), ``robots.parquet`` (a row 
 step), ``targets.parquet``, ``events.parquet``, ``zones.parquet`` (truth, for plots only),
 ``knowledge.parquet`` (zone estimates as robots learn them), ``timing.parquet`` (planning wall
 time per step, the one table that is not reproducible bit for bit) and ``manifest.json``.
-Files are written to a temporary name and renamed, so a file is either complete or absent.
+The folder is written under a temporary name beside its destination and renamed into place when
+every file is complete, so a run folder is either complete or absent (never partial).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -59,25 +62,44 @@ def frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _atomic_write(path: Path, write: Any) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; run folders are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def is_run_folder(path: Path) -> bool:
+    """Whether ``path`` is an empty folder or one that :func:`write_run` wrote (replaceable)."""
+    return path.is_dir() and (not any(path.iterdir()) or (path / "manifest.json").is_file())
 
 
-def write_run(result: EpisodeResult, out_dir: str | Path) -> Path:
-    """Write every table and the manifest into ``out_dir`` (created if needed)."""
+def write_run(
+    result: EpisodeResult,
+    out_dir: str | Path,
+    finish: Callable[[Path], object] | None = None,
+) -> Path:
+    """Write every table and the manifest into ``out_dir``, all or nothing.
+
+    Everything is written into a hidden staging folder beside ``out_dir``; ``finish`` (e.g. the
+    figures) is then called with the staging folder, and only when all of it succeeded is the
+    staging folder renamed to ``out_dir``. An existing ``out_dir`` is replaced only if it is a
+    run folder (or empty); anything else raises :class:`FileExistsError` before writing.
+    """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    for name in (*TABLES, TIMING):
-        table = result.tables[name]
-        _atomic_write(out / f"{name}.parquet", lambda p, t=table: t.to_parquet(p, index=False))
-    text = json.dumps(result.manifest, indent=2, sort_keys=True, default=str)
-    _atomic_write(out / "manifest.json", lambda p: Path(p).write_text(text + "\n"))
+    if out.exists() and not is_run_folder(out):
+        raise FileExistsError(f"{out}: exists and is not a run folder; not overwriting it")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".partial"))
+    try:
+        for name in (*TABLES, TIMING):
+            result.tables[name].to_parquet(staging / f"{name}.parquet", index=False)
+        text = json.dumps(result.manifest, indent=2, sort_keys=True, default=str)
+        (staging / "manifest.json").write_text(text + "\n")
+        if finish is not None:
+            finish(staging)
+        os.chmod(staging, 0o755)  # mkdtemp creates 0700; run folders are meant to be shared
+        if out.exists():
+            old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".old"))
+            os.replace(out, old / out.name)
+            os.replace(staging, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
     return out

@@ -1,0 +1,91 @@
+"""Numerical health of covariance matrices: check, and repair with a report (issue #6, item 3).
+
+The EKF (Joseph form, symmetrised) and covariance intersection keep covariances symmetric
+positive definite in exact arithmetic; in floating point a long run can still drift. Each tick
+the team belief passes its league estimates through :func:`repair_covariances`, which
+
+* symmetrises every matrix (``(P + Pᵀ)/2``),
+* floors its eigenvalues at ``EIGEN_FLOOR_RATIO · λmax`` (and at ``EIGEN_FLOOR_ABS``), and
+* replaces a matrix that is not finite at all by ``fallback`` (the prior's spread),
+
+and reports each matrix it had to change, so the caller can log an event.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+#: Relative asymmetry ``max|P − Pᵀ| / max|P|`` tolerated without a report (rounding level).
+ASYMMETRY_TOL = 1e-9
+#: Smallest eigenvalue allowed, relative to the largest one.
+EIGEN_FLOOR_RATIO = 1e-12
+#: Smallest eigenvalue allowed, absolute (state units squared).
+EIGEN_FLOOR_ABS = 1e-12
+
+
+@dataclass(frozen=True)
+class Repair:
+    """One matrix that was changed: its index, what was wrong, and how badly."""
+
+    index: int
+    problem: str  # "asymmetric", "not positive definite", "not finite"
+    asymmetry: float
+    min_eigenvalue: float
+
+    def describe(self) -> str:
+        return (
+            f"target {self.index}: {self.problem} "
+            f"(asymmetry {self.asymmetry:.3g}, min eigenvalue {self.min_eigenvalue:.3g})"
+        )
+
+
+def repair_covariances(
+    cov: FloatArray, fallback: FloatArray | None = None
+) -> tuple[FloatArray, list[Repair]]:
+    """Symmetric positive-definite copies of a stack ``(N, d, d)``; lists what was repaired.
+
+    Matrices that are already healthy come back symmetrised but otherwise unchanged.
+    ``fallback`` ``(d, d)`` replaces a matrix with a non-finite entry (default: identity).
+    """
+    cov = np.array(cov, dtype=float, copy=True)
+    n, d = cov.shape[0], cov.shape[-1]
+    repairs: list[Repair] = []
+    finite = np.all(np.isfinite(cov), axis=(1, 2))
+    for bad in np.flatnonzero(~finite).tolist():
+        cov[bad] = np.eye(d) if fallback is None else fallback
+        repairs.append(Repair(bad, "not finite", float("nan"), float("nan")))
+    scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)
+    asym = np.abs(cov - np.swapaxes(cov, 1, 2)).max(axis=(1, 2)) / scale
+    cov = 0.5 * (cov + np.swapaxes(cov, 1, 2))
+    eig, vec = np.linalg.eigh(cov)
+    floor = np.maximum(EIGEN_FLOOR_RATIO * eig[:, -1:], EIGEN_FLOOR_ABS)
+    low = np.any(eig < floor, axis=1)
+    for j in range(n):
+        if not finite[j]:
+            continue
+        if low[j]:
+            clipped = np.maximum(eig[j], floor[j])
+            cov[j] = (vec[j] * clipped) @ vec[j].T
+            cov[j] = 0.5 * (cov[j] + cov[j].T)
+            repairs.append(Repair(j, "not positive definite", float(asym[j]), float(eig[j, 0])))
+        elif asym[j] > ASYMMETRY_TOL:
+            repairs.append(Repair(j, "asymmetric", float(asym[j]), float(eig[j, 0])))
+    repairs.sort(key=lambda r: r.index)
+    return cov, repairs
+
+
+def is_spd(cov: FloatArray) -> bool:
+    """Whether every matrix of a stack is finite, symmetric and has eigenvalues ≥ the floor."""
+    cov = np.asarray(cov, dtype=float)
+    if not np.all(np.isfinite(cov)):
+        return False
+    if np.any(cov != np.swapaxes(cov, -1, -2)):
+        return False
+    eig = np.linalg.eigvalsh(cov)
+    floor = np.maximum(EIGEN_FLOOR_RATIO * eig[..., -1:], EIGEN_FLOOR_ABS)
+    return bool(np.all(eig >= 0.5 * floor))  # half: eigenvalue rounding at the floor itself

@@ -1,0 +1,149 @@
+"""Numerical health (issue #6, item 3): covariances stay SPD, angles wrapped, tables free of NaN."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from conftest import shipped
+from resilient_tracking.belief.ekf import ExtendedKalmanFilter
+from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.health import is_spd, repair_covariances
+from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.sim.episode import run_episode
+
+# ---------------------------------------------------------------------------- repair
+
+
+def spd_stack(n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((n, 4, 4))
+    cov = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(4)
+    return 0.5 * (cov + np.swapaxes(cov, 1, 2))
+
+
+def test_healthy_covariances_come_back_unchanged():
+    cov = spd_stack(5, 0)
+    out, repairs = repair_covariances(cov)
+    assert repairs == [] and np.array_equal(out, cov)
+
+
+def test_asymmetry_is_symmetrised_and_reported():
+    cov = spd_stack(3, 1)
+    cov[1, 0, 2] += 1e-3
+    out, repairs = repair_covariances(cov)
+    assert [(r.index, r.problem) for r in repairs] == [(1, "asymmetric")]
+    assert is_spd(out) and np.array_equal(out[0], cov[0])
+
+
+def test_a_negative_eigenvalue_is_floored_and_reported():
+    cov = spd_stack(3, 2)
+    eig, vec = np.linalg.eigh(cov[2])
+    eig[0] = -0.5
+    cov[2] = (vec * eig) @ vec.T
+    out, repairs = repair_covariances(cov)
+    assert [(r.index, r.problem) for r in repairs] == [(2, "not positive definite")]
+    assert repairs[0].min_eigenvalue == pytest.approx(-0.5)
+    assert is_spd(out)
+    # only the bad direction changed
+    assert np.allclose(out[2] @ vec[:, 1:], cov[2] @ vec[:, 1:])
+
+
+def test_a_non_finite_covariance_is_replaced_by_the_fallback():
+    cov = spd_stack(2, 3)
+    cov[0, 1, 1] = np.nan
+    fallback = np.diag([0.25, 0.25, 0.09, 0.09])
+    out, repairs = repair_covariances(cov, fallback=fallback)
+    assert [(r.index, r.problem) for r in repairs] == [(0, "not finite")]
+    assert np.array_equal(out[0], fallback) and is_spd(out)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    arrays(
+        np.float64,
+        (3, 4, 4),
+        elements=st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False),
+    )
+)
+def test_any_finite_stack_comes_out_spd(cov):
+    out, repairs = repair_covariances(cov)
+    assert is_spd(out)
+    if not repairs:  # nothing reported: nothing but exact rounding-level symmetrisation
+        assert np.allclose(out, cov, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(cov).max()))
+
+
+# ---------------------------------------------------------------------------- in a team
+
+
+def test_a_drifted_estimate_is_repaired_with_an_event(monkeypatch):
+    """Corrupt one EKF output mid-run: the belief repairs it and events.parquet says so."""
+    original = ExtendedKalmanFilter.update
+    calls = {"n": 0}
+
+    def drifting_update(self, est, robots, z, nis_out=None):
+        out = original(self, est, robots, z, nis_out)
+        calls["n"] += 1
+        if calls["n"] == 40:
+            cov = out.cov.copy()
+            cov[1, 0, 0] = -0.2  # no longer positive definite
+            cov[1, 2, 3] += 0.05  # and asymmetric
+            return TargetEstimate(out.mean, cov)
+        return out
+
+    monkeypatch.setattr(ExtendedKalmanFilter, "update", drifting_update)
+    result = run_episode(shipped("sensing-temp").with_overrides(steps=60), seed=1)
+    events = result["events"]
+    repaired = events[events["event"] == "covariance_repaired"]
+    assert len(repaired) == 1
+    assert (
+        repaired["step"].iloc[0] == 39
+        and "target 1: not positive definite" in (repaired["detail"].iloc[0])
+    )
+    targets = result["targets"]
+    assert np.all(targets[["var_x", "var_y"]].to_numpy() > 0)
+
+
+LONG_RUNS = [
+    ("combined-perm", "failure_aware", 3, 700),
+    ("comm-temp", "failure_aware", 4, 700),
+    ("sensing-perm", "vanilla", 5, 700),
+]
+
+
+@pytest.mark.parametrize(("name", "policy", "seed", "steps"), LONG_RUNS)
+def test_long_runs_stay_spd_wrapped_and_finite(monkeypatch, name, policy, seed, steps):
+    seen = {"ticks": 0, "matrices": 0, "bearings": 0, "min_eig": math.inf}
+    original = TeamBelief.update
+
+    def checking_update(self, obs):
+        events = original(self, obs)
+        for est in self.estimates:
+            assert is_spd(est.cov), f"step {obs.step}: covariance not SPD"
+            assert np.all(np.isfinite(est.mean)), f"step {obs.step}: mean not finite"
+            seen["matrices"] += len(est.cov)
+            seen["min_eig"] = min(seen["min_eig"], float(np.linalg.eigvalsh(est.cov).min()))
+        bearings = obs.measurements[..., 1]
+        bearings = bearings[np.isfinite(bearings)]
+        assert np.all((bearings >= -np.pi) & (bearings < np.pi)), "bearing not wrapped"
+        seen["bearings"] += bearings.size
+        seen["ticks"] += 1
+        return events
+
+    monkeypatch.setattr(TeamBelief, "update", checking_update)
+    result = run_episode(shipped(name).with_overrides(steps=steps), policy=policy, seed=seed)
+    assert seen["ticks"] == steps and seen["bearings"] > steps
+    assert seen["min_eig"] > 0
+    for table_name, table in result.tables.items():
+        numbers = table.select_dtypes("number").to_numpy(dtype=float)
+        assert np.all(np.isfinite(numbers)), table_name
+        text = table.select_dtypes(exclude="number")
+        for column in text.columns:
+            assert not text[column].isna().any(), (table_name, column)
+    # drift would have been repaired, and logged; the filter does not drift in these runs
+    assert (result["events"]["event"] == "covariance_repaired").sum() == 0
