@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.policies.failure_aware import FailureAwarePolicy
 from resilient_tracking.policies.vanilla import VanillaPolicy
@@ -12,9 +13,10 @@ __all__ = ["Decision", "FailureAwarePolicy", "Policy", "VanillaPolicy", "make_po
 
 
 def make_policy(name: str, scenario: Scenario, config: TeamConfig) -> Policy:
-    """The policy called ``name`` with its parameters from the scenario."""
+    """The policy called ``name`` with its parameters and planner from the scenario."""
+    planner = LeaguePlanner(scenario.planner.solver)
     if name == "vanilla":
-        return VanillaPolicy(config, scenario.policy.vanilla)
+        return VanillaPolicy(config, scenario.policy.vanilla, planner)
     if name == "failure_aware":
-        return FailureAwarePolicy(config, scenario.policy.failure_aware)
+        return FailureAwarePolicy(config, scenario.policy.failure_aware, planner)
     raise ValueError(f"policy: unknown name {name!r}")
