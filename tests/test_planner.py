@@ -6,6 +6,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from resilient_tracking.planning import codegen
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.league_problem import (
     LeagueNLP,
@@ -237,3 +238,28 @@ def test_unknown_solver_names_are_rejected():
                 "planner": {"solver": "snopt"},
             }
         )
+
+
+@pytest.mark.skipif(not codegen.enabled(), reason="needs a C compiler and RTRACK_CODEGEN on")
+def test_compiled_code_gives_bit_for_bit_the_same_plans(tmp_path, monkeypatch):
+    """The cache can fill between two runs; the results must not notice."""
+    monkeypatch.setenv("RTRACK_CACHE_DIR", str(tmp_path))
+    q0 = inputs(2, 2, seed=6)
+    runs = []
+    for use in (False, True):
+        problem = LeagueProblem(structure_of(q0), "sqp", {"codegen": use, "margin": 0.011})
+        if use:
+            problem.wait_for_compiler()
+            assert problem.compiled("sqp") and problem.compiled("ipopt")
+            assert list(tmp_path.glob("*.so"))
+        q = inputs(2, 2, seed=6)
+        warm, out = None, []
+        for _ in range(4):
+            for method in ("sqp", "ipopt"):
+                solution, stats = problem.solve(q, warm, method)
+                assert stats["success"]
+                out.append(solution["x"])
+            warm = solution
+            q.positions = q.positions + problem.split(solution["x"]) * q.dt
+        runs.append(np.stack(out))
+    np.testing.assert_array_equal(runs[0], runs[1])

@@ -38,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import io
+import logging
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -45,6 +46,10 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+
+from resilient_tracking.planning import codegen
+
+log = logging.getLogger(__name__)
 
 #: Distance regularisation (m) in the planner's information model and in â.
 PLAN_EPS = 0.05
@@ -507,6 +512,7 @@ class _BufferedCall:
         self.arg = np.zeros(int(self.offsets[-1]))
         self.res = np.zeros(2 * n_x + n_g + 1)
         self.n_x, self.n_g = n_x, n_g
+        self.compiled = False
         buffer: Any  # the SWIG wrapper takes (index, buffer); its stub also lists a size
         buffer, self._evaluate = self.function.buffer()
         buffer.set_arg(0, self.arg.data)
@@ -550,14 +556,32 @@ class _BufferedCall:
             return {"success": False, "return_status": f"no stats ({err.__class__.__name__})"}
 
 
+#: Symbolic problems and compile jobs, shared process-wide: building them is the expensive,
+#: stateless part. Solvers are not shared: qpOASES keeps state from one solve to the next, so
+#: a solver's results depend on its history, which must be the episode's own.
+_NLPS: dict[tuple[Structure, float], LeagueNLP] = {}
+_JOBS: dict[tuple[Structure, float, str, str], codegen.CompiledFunctions | None] = {}
+
+
+def shared_nlp(structure: Structure, margin: float = SQP_MARGIN) -> LeagueNLP:
+    """The process-wide :class:`LeagueNLP` of ``structure`` (built on first use)."""
+    key = (structure, margin)
+    if key not in _NLPS:
+        log.debug("building league problem %s", structure)
+        _NLPS[key] = LeagueNLP(structure, margin)
+    return _NLPS[key]
+
+
 class LeagueProblem:
     """A league NLP for one :class:`Structure`; solve with :meth:`solve`.
 
     ``solver`` is the default method of :meth:`solve`: ``"ipopt"`` (interior point with the
     exact Hessian) or ``"sqp"`` (CasADi's ``sqpmethod`` with qpOASES, see ``SQP_OPTIONS``).
-    Solvers are created on first use. ``options`` may hold ``"ipopt"``, ``"sqp"`` and
-    ``"qpoases"`` option dicts (merged over the defaults), ``"sqp_hessian"`` (a key of
-    :attr:`LeagueNLP.functions` without ``hess_``) and ``"margin"``.
+    Solvers are created on first use, on compiled code when its library is in the cache
+    (:mod:`~resilient_tracking.planning.codegen`; compiling starts in the background on first
+    use otherwise). ``options`` may hold ``"ipopt"``, ``"sqp"`` and ``"qpoases"`` option dicts
+    (merged over the defaults), ``"sqp_hessian"`` (a key of :attr:`LeagueNLP.functions` without
+    ``hess_``), ``"margin"`` and ``"codegen"`` (False: never use compiled code).
     """
 
     def __init__(self, structure: Structure, solver: str = "ipopt", options: dict | None = None):
@@ -566,7 +590,8 @@ class LeagueProblem:
         self.structure = structure
         self.default_method = solver
         self.options = options or {}
-        self.nlp = LeagueNLP(structure, self.options.get("margin", SQP_MARGIN))
+        self.margin = float(self.options.get("margin", SQP_MARGIN))
+        self.nlp = shared_nlp(structure, self.margin)
         self.n_constraints = self.nlp.n_constraints
         self.n_params = self.nlp.n_params
         self._calls: dict[str, _BufferedCall] = {}
@@ -577,39 +602,85 @@ class LeagueProblem:
         """The CasADi solver of ``method`` (built on first use)."""
         return self._call(method or self.default_method).solver
 
+    def compiled(self, method: str | None = None) -> bool:
+        """Whether ``method`` runs on compiled code."""
+        return self._call(method or self.default_method).compiled
+
+    def wait_for_compiler(self, methods: tuple[str, ...] = METHODS) -> None:
+        """Block until the compiled code of ``methods`` is ready, and use it from now on.
+
+        Without this, a solver keeps the code it was created with (compiled if the library was
+        already in the cache): switching mid-episode would restart the solver's state at a
+        moment set by the compiler's speed, which would break bit-for-bit reproducibility.
+        """
+        for method in methods:
+            job = self._job(method)
+            if job is not None and job.wait() and not self._call(method).compiled:
+                self._calls[method] = self._new_call(method, job)
+
+    def _functions(self, method: str) -> dict[str, ca.Function]:
+        fn = self.nlp.functions
+        if method == "ipopt":
+            keys = {"grad_f": "grad_f", "jac_g": "jac_g", "hess_lag": "hess_exact_triu"}
+        else:
+            keys = {"jac_fg": "jac_fg", "hess_lag": "hess_" + self._sqp_hessian}
+        return {role: fn[key] for role, key in keys.items()}
+
+    @property
+    def _sqp_hessian(self) -> str:
+        return str(self.options.get("sqp_hessian", "clip"))
+
+    def _job(self, method: str) -> codegen.CompiledFunctions | None:
+        """The (shared) compile job of ``method``'s functions; None when codegen is off."""
+        if not self.options.get("codegen", True):
+            return None
+        key = (self.structure, self.margin, method, self._sqp_hessian)
+        if key not in _JOBS:
+            s = self.structure
+            label = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c"
+            _JOBS[key] = codegen.compile_functions(self._functions(method), f"{label}_{method}")
+        return _JOBS[key]
+
     def _call(self, method: str) -> _BufferedCall:
         if method not in self._calls:
-            s = self.structure
-            self._calls[method] = _BufferedCall(
-                self._build(method), s.n_vars, self.n_params, self.n_constraints
-            )
+            self._calls[method] = self._new_call(method, self._job(method))
         return self._calls[method]
 
-    def _build(self, method: str) -> ca.Function:
+    def _new_call(self, method: str, job: codegen.CompiledFunctions | None) -> _BufferedCall:
+        functions = self._functions(method)
+        compiled = job is not None and job.ready()
+        if compiled and job is not None:
+            try:
+                functions = job.load()
+            except RuntimeError as err:  # a broken library: stay on the virtual machine
+                log.warning("loading %s failed: %s", job.library, err)
+                job.failed, compiled = True, False
+        s = self.structure
+        solver = self._build(method, functions)
+        call = _BufferedCall(solver, s.n_vars, self.n_params, self.n_constraints)
+        call.compiled = compiled
+        return call
+
+    def _build(self, method: str, functions: dict[str, ca.Function]) -> ca.Function:
         if method not in METHODS:
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
         s = self.structure
         name = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c_{method}"
-        fn = self.nlp.functions
         opts: dict[str, Any] = {"print_time": False, "error_on_fail": False}
+        # f and g stay symbolic: CasADi derives its own helpers (never called here) from them
+        nlp = self.nlp.nlp
         if method == "ipopt":
-            opts.update(
-                grad_f=fn["grad_f"],
-                jac_g=fn["jac_g"],
-                hess_lag=fn["hess_exact_triu"],
-                ipopt={**IPOPT_OPTIONS, **self.options.get("ipopt", {})},
-            )
-            return ca.nlpsol(name, "ipopt", self.nlp.nlp, opts)
+            opts.update(functions, ipopt={**IPOPT_OPTIONS, **self.options.get("ipopt", {})})
+            return ca.nlpsol(name, "ipopt", nlp, opts)
         opts.update(SQP_OPTIONS)
         opts.update(self.options.get("sqp", {}))
         opts.update(
-            jac_fg=fn["jac_fg"],
-            hess_lag=fn["hess_" + self.options.get("sqp_hessian", "clip")],
+            functions,
             qpsol="qpoases",
             qpsol_options={**QPOASES_OPTIONS, **self.options.get("qpoases", {})},
         )
         with _quiet_stdout():  # qpOASES prints a licence banner when its memory is set up
-            return ca.nlpsol(name, "sqpmethod", self.nlp.nlp, opts)
+            return ca.nlpsol(name, "sqpmethod", nlp, opts)
 
     # ------------------------------------------------------------------ packing
 
