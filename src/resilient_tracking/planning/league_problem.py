@@ -472,11 +472,13 @@ IPOPT_OPTIONS: dict[str, Any] = {
 }
 #: ``sqpmethod`` settings of the fast rung: exact Hessian with clipped diagonal blocks, a real
 #: line search (10 backtracking steps), and few iterations before handing over to IPOPT.
+#: Tolerances are absolute: 1e-6 m/s on the velocities is far below anything that matters,
+#: and saves about half an iteration per solve against 1e-8.
 SQP_OPTIONS: dict[str, Any] = {
     "max_iter": 25,
     "max_iter_ls": 10,
-    "tol_pr": 1e-8,
-    "tol_du": 1e-8,
+    "tol_pr": 1e-6,
+    "tol_du": 1e-6,
     "min_step_size": 1e-12,
     "print_header": False,
     "print_iteration": False,
@@ -570,6 +572,13 @@ def shared_nlp(structure: Structure, margin: float = SQP_MARGIN) -> LeagueNLP:
         log.debug("building league problem %s", structure)
         _NLPS[key] = LeagueNLP(structure, margin)
     return _NLPS[key]
+
+
+def wait_for_compilers() -> None:
+    """Block until every compile job started in this process is done (for warm-ups)."""
+    for job in list(_JOBS.values()):
+        if job is not None:
+            job.wait()
 
 
 class LeagueProblem:
