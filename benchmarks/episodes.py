@@ -163,11 +163,21 @@ def report(data: dict[str, Any]) -> str:
     mean = {arm: float(np.mean(totals[arm])) for arm in arms}
     rows.append(
         [
-            "all six",
+            "all six (pooled)",
             f"{mean['ladder']:.4g}",
             f"{mean['ipopt']:.4g}",
             100 * (mean["ladder"] / mean["ipopt"] - 1),
             100 * (mean[TIGHT] / mean["ipopt"] - 1),
+            "",
+        ]
+    )
+    rows.append(
+        [
+            "mean of the six % differences",
+            "",
+            "",
+            float(np.mean([row[3] for row in rows[: len(SHIPPED)]])),
+            float(np.mean([row[4] for row in rows[: len(SHIPPED)]])),
             "",
         ]
     )

@@ -3,18 +3,20 @@
     python -m benchmarks.plan_step            # 200 closed-loop steps per league size
     python -m benchmarks.plan_step --quick    # a short smoke run
 
-Every step, the same :class:`ProblemInputs` go to the ladder (``LeaguePlanner("ladder")``),
-to the package's IPOPT-only path (``LeaguePlanner("ipopt")``) and, on a subsample of steps,
-to the naive reference (``benchmarks.naive``: ``Opti`` rebuilt every step, cold IPOPT). The loop
-is driven by the ladder's controls. Times are wall-clock around the whole call (packing,
-solver, unpacking). Also measured: one evaluation of the NLP's functions and derivatives, the
-first-time build of a structure, and the fraction of robots at a zone's boundary.
+The ladder (``LeaguePlanner("ladder")``) drives the closed loop; the same sequence of
+:class:`ProblemInputs` is then replayed, in the same run, to the package's IPOPT-only path
+(``LeaguePlanner("ipopt")``) and, on a subsample of steps, to the naive reference
+(``benchmarks.naive``: ``Opti`` rebuilt every step, cold IPOPT). Times are wall-clock and CPU
+around the whole call (packing, solver, unpacking). Also measured: one evaluation of the NLP's
+functions and derivatives, the first-time build of a structure, and the fraction of robots at
+a zone's boundary.
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import copy
 import time
 import timeit
 from typing import Any
@@ -90,33 +92,49 @@ def run_case(case: LeagueCase, steps: int, naive_every: int, seed: int = 0) -> d
     iters: dict[str, list[int]] = {"ladder": [], "ipopt": [], "naive": []}
     rungs: dict[str, collections.Counter[str]] = {k: collections.Counter() for k in times}
     failures = dict.fromkeys(times, 0)
-    du_ipopt, du_naive, active = [], [], []
+    controls: dict[str, list[np.ndarray]] = {"ladder": [], "ipopt": [], "naive": []}
+    # Pass 1: the ladder drives the loop; its inputs are recorded for the other passes, which
+    # replay them, so every solver sees exactly the same problems (and none disturbs the
+    # others' caches, as interleaving a naive rebuild between two fast solves would).
+    recorded, active = [], []
     last_q, last_solution = None, None
-    for k, q in enumerate(loop.run(steps)):
-        results = {}
-        for name, planner in planners.items():
-            t, c = time.perf_counter(), time.process_time()
-            r = planner.plan(s, members, q)
-            times[name].append((time.perf_counter() - t) * 1e3)
-            cpu[name].append((time.process_time() - c) * 1e3)
-            iters[name].append(r.iterations)
-            rungs[name][r.rung] += 1
-            failures[name] += not r.success
-            results[name] = r
-        du_ipopt.append(float(np.abs(results["ladder"].controls - results["ipopt"].controls).max()))
-        if naive_every and k % naive_every == 0:
-            c = time.process_time()
-            u, stats, seconds = naive.solve(q)
-            times["naive"].append(seconds * 1e3)
-            cpu["naive"].append((time.process_time() - c) * 1e3)
-            iters["naive"].append(int(stats.get("iter_count", 0)))
-            ok = bool(stats.get("success", False))
-            rungs["naive"]["ipopt" if ok else "failed"] += 1
-            failures["naive"] += not ok
-            du_naive.append(float(np.abs(u - results["ipopt"].controls).max()))
-        active.append(active_fraction(q, results["ladder"].controls))
+    for q in loop.run(steps):
+        t, c = time.perf_counter(), time.process_time()
+        r = planners["ladder"].plan(s, members, q)
+        times["ladder"].append((time.perf_counter() - t) * 1e3)
+        cpu["ladder"].append((time.process_time() - c) * 1e3)
+        iters["ladder"].append(r.iterations)
+        rungs["ladder"][r.rung] += 1
+        failures["ladder"] += not r.success
+        controls["ladder"].append(r.controls)
+        active.append(active_fraction(q, r.controls))
+        recorded.append(copy.deepcopy(q))
         last_q, last_solution = q, planners["ladder"]._warm.get((s, members))
-        loop.apply(q, results["ladder"].controls)
+        loop.apply(q, r.controls)
+    # Pass 2: IPOPT only, warm-started from its own previous solution.
+    for q in recorded:
+        t, c = time.perf_counter(), time.process_time()
+        r = planners["ipopt"].plan(s, members, q)
+        times["ipopt"].append((time.perf_counter() - t) * 1e3)
+        cpu["ipopt"].append((time.process_time() - c) * 1e3)
+        iters["ipopt"].append(r.iterations)
+        rungs["ipopt"][r.rung] += 1
+        failures["ipopt"] += not r.success
+        controls["ipopt"].append(r.controls)
+    # Pass 3: the naive reference on every ``naive_every``-th step.
+    du_naive = []
+    for k in range(0, len(recorded), naive_every or len(recorded) + 1):
+        c = time.process_time()
+        u, stats, seconds = naive.solve(recorded[k])
+        times["naive"].append(seconds * 1e3)
+        cpu["naive"].append((time.process_time() - c) * 1e3)
+        iters["naive"].append(int(stats.get("iter_count", 0)))
+        ok = bool(stats.get("success", False))
+        rungs["naive"]["ipopt" if ok else "failed"] += 1
+        failures["naive"] += not ok
+        du_naive.append(float(np.abs(u - controls["ipopt"][k]).max()))
+    pairs = zip(controls["ladder"], controls["ipopt"], strict=True)
+    du_ipopt = [float(np.abs(a - b).max()) for a, b in pairs]
     out: dict[str, Any] = {
         "case": case.label,
         "structure": vars(s) | {"n_vars": s.n_vars, "n_constraints": s.n_constraints},

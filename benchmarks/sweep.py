@@ -40,8 +40,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--runs", type=int, default=20)
     args = parser.parse_args(argv)
     n = 6 if args.quick else args.runs
-    pairs = [(name, seed) for seed in itertools.count(1) for name in SHIPPED]
-    runs = list(itertools.islice(iter(pairs), n))
+    pairs = ((name, seed) for seed in itertools.count(1) for name in SHIPPED)
+    runs = list(itertools.islice(pairs, n))
     info = machine()
     print(f"# sweep: {n} episodes (300 steps each), joblib with 1 and 2 workers")
     print(
