@@ -17,8 +17,10 @@ from __future__ import annotations
 import argparse
 import collections
 import copy
+import json
 import time
 import timeit
+from pathlib import Path
 from typing import Any
 
 import casadi as ca
@@ -243,11 +245,12 @@ def report(results: list[dict[str, Any]]) -> str:
     return "\n\n".join(text)
 
 
-def plot(results: list[dict[str, Any]], path: Any) -> None:
+def plot(results: list[dict[str, Any]], path: Any, title: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullLocator
 
     robots = [r["structure"]["n_robots"] for r in results]
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -262,11 +265,14 @@ def plot(results: list[dict[str, Any]], path: Any) -> None:
         ax.plot(robots, med, "o-", color=color, label=f"{label} (median)")
         ax.plot(robots, p90, "--", color=color, alpha=0.6, label=f"{label} (p90)")
     ax.axhline(100, color="grey", lw=0.8, ls=":")
-    ax.text(robots[0], 110, "control period 100 ms", color="grey", fontsize=8)
+    ax.text(robots[-1], 125, "control period 100 ms", color="grey", fontsize=8, ha="right")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.xaxis.set_minor_locator(NullLocator())
     ax.set_xticks(robots)
     ax.set_xticklabels([r["case"] for r in results])
+    if title:
+        ax.set_title(title, fontsize=8)
     ax.set_xlabel("league size (robots × targets), with known zones")
     ax.set_ylabel("plan time per league solve (ms)")
     ax.grid(True, which="both", alpha=0.3)
@@ -277,6 +283,13 @@ def plot(results: list[dict[str, Any]], path: Any) -> None:
     plt.close(fig)
 
 
+def _title(info: dict[str, Any]) -> str:
+    return (
+        f"{info['cpu']}, {info['cores']} cores (load average {info['load_average_1m']}), "
+        f"CasADi {info['casadi']}"
+    )
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="40 steps, few naive solves")
@@ -284,7 +297,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--sizes", nargs="*", help="subset of 3x3 5x5 10x10 20x20")
     parser.add_argument("--no-naive", action="store_true")
     parser.add_argument("--no-plot", action="store_true")
+    parser.add_argument(
+        "--plot-only", metavar="JSON", help="redraw the plot from a saved result file"
+    )
     args = parser.parse_args(argv)
+    if args.plot_only:
+        saved = json.loads(Path(args.plot_only).read_text())
+        image = IMAGES / "plan-time-vs-team-size.png"
+        plot(saved["results"], image, _title(saved["machine"]))
+        print(f"plot: {image}")
+        return saved
     steps = 40 if args.quick else args.steps
     cases = [c for c in CASES if not args.sizes or c.label in args.sizes]
     info = machine()
@@ -307,7 +329,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     print(f"\nresults: {path}")
     if not args.no_plot and not args.no_naive:
         image = IMAGES / ("plan-time-vs-team-size" + ("-quick" if args.quick else "") + ".png")
-        plot(results, image)
+        plot(results, image, _title(info))
         print(f"plot: {image}")
     return data
 

@@ -30,7 +30,7 @@ import casadi as ca
 log = logging.getLogger(__name__)
 
 #: Source files above this size are compiled with -O1 (much faster to compile, a bit slower).
-LARGE_SOURCE_BYTES = 2_000_000
+LARGE_SOURCE_BYTES = 1_000_000
 
 
 def enabled() -> bool:
