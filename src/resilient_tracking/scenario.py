@@ -310,6 +310,12 @@ class PolicySpec(Strict):
 POLICY_NAMES: tuple[str, ...] = ("vanilla", "failure_aware", "sog")
 
 
+class PlannerSpec(Strict):
+    """How league problems are solved (docs/performance.md): the fast SQP ladder or IPOPT only."""
+
+    solver: Literal["ladder", "ipopt"] = "ladder"
+
+
 # ---------------------------------------------------------------------------- scenario
 
 
@@ -328,6 +334,7 @@ class Scenario(Strict):
     zones: list[Zone] = Field(default_factory=list, max_length=MAX_ZONES)
     comm_range: PositiveFloat | None = None
     policy: PolicySpec = PolicySpec()
+    planner: PlannerSpec = PlannerSpec()
 
     def problems(self) -> list[str]:
         """Cross-field problems pydantic cannot see, each naming its field."""

@@ -4,17 +4,32 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 
 def components(adjacency: NDArray[np.bool_]) -> list[list[int]]:
-    """Leagues from a symmetric adjacency matrix, each sorted, ordered by smallest member."""
-    n = adjacency.shape[0]
+    """Leagues from a symmetric adjacency matrix, each sorted, ordered by smallest member.
+
+    A depth-first search over neighbour lists: teams are small, and this is called every step,
+    where building a sparse matrix for a graph library cost more than the search itself.
+    """
+    adj = np.asarray(adjacency, dtype=bool)
+    n = adj.shape[0]
     if n == 0:
         return []
-    _, labels = connected_components(csr_matrix(adjacency.astype(np.int8)), directed=False)
-    groups: dict[int, list[int]] = {}
-    for robot, label in enumerate(labels):
-        groups.setdefault(int(label), []).append(robot)
-    return sorted(groups.values(), key=lambda g: g[0])
+    adj = adj | adj.T  # undirected: a link in either direction joins the two robots
+    neighbours = [np.flatnonzero(row).tolist() for row in adj]
+    seen = [False] * n
+    groups: list[list[int]] = []
+    for start in range(n):  # in increasing order, so each group starts at its smallest member
+        if seen[start]:
+            continue
+        seen[start] = True
+        stack, members = [start], [start]
+        while stack:
+            for j in neighbours[stack.pop()]:
+                if not seen[j]:
+                    seen[j] = True
+                    stack.append(j)
+                    members.append(j)
+        groups.append(sorted(members))
+    return groups

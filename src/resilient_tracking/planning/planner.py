@@ -1,7 +1,16 @@
 """Solve league problems: cached by structure, warm-started, never crashing (SPEC §7).
 
-The ladder per solve: warm-started solve → cold solve → safe action (stay put: within every
-bound, and never deeper into a known zone). Each fallback is reported to the caller.
+The solver ladder per solve (``solver="ladder"``, the default):
+
+1. ``"sqp"`` — CasADi's ``sqpmethod`` with qpOASES, warm-started from the previous step's
+   primal *and* dual solution of the same league (cold from zero when there is none);
+2. ``"warm"`` — IPOPT from the same primal–dual warm start (skipped when there is none);
+3. ``"cold"`` — IPOPT from zero velocities and zero multipliers;
+4. ``"safe"`` — hold position, clipped to the velocity bounds (inside every bound, and never
+   deeper into a known zone).
+
+With ``solver="ipopt"`` the ladder starts at rung 2. Each fallback is reported to the caller
+through :attr:`PlanResult.fallback`; the policy turns it into a ``solver_fallback`` event.
 """
 
 from __future__ import annotations
@@ -9,7 +18,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,16 +27,24 @@ from resilient_tracking.planning.league_problem import LeagueProblem, ProblemInp
 
 log = logging.getLogger(__name__)
 
+#: Solver choices of :class:`LeaguePlanner`.
+SOLVERS = ("ladder", "ipopt")
+
 
 @dataclass(frozen=True)
 class PlanResult:
     controls: np.ndarray  # (n, 2)
     status: str
     success: bool
+    #: solver iterations, summed over every attempt of this solve
     iterations: int
     solve_ms: float
-    #: "" when the first attempt succeeded, else which rung was used: "cold" or "safe"
+    #: "" when the first attempt succeeded, else which rung was used: "warm", "cold" or "safe"
     fallback: str = ""
+    #: the rung that produced the controls: "sqp", "warm", "cold" or "safe"
+    rung: str = ""
+    #: (rung, return status) of every attempt, in order
+    attempts: tuple[tuple[str, str], ...] = field(default_factory=tuple)
 
 
 #: Test hook called after every solver attempt with (rung, solution, stats); it returns the
@@ -36,48 +53,74 @@ FaultHook = Callable[[str, dict[str, Any], dict[str, Any]], tuple[dict[str, Any]
 
 
 class LeaguePlanner:
-    """Holds one problem per structure and a warm start per league membership."""
+    """Holds one problem per structure and a warm start per league membership.
 
-    def __init__(self, solver: str = "ipopt", fault_hook: FaultHook | None = None):
+    ``solver`` is ``"ladder"`` (SQP first, then IPOPT) or ``"ipopt"`` (IPOPT only); ``options``
+    are passed to every :class:`LeagueProblem`.
+    """
+
+    def __init__(
+        self,
+        solver: str = "ladder",
+        fault_hook: FaultHook | None = None,
+        options: dict[str, Any] | None = None,
+    ):
+        if solver not in SOLVERS:
+            raise ValueError(f"solver: expected one of {SOLVERS}, got {solver!r}")
         self.solver = solver
         self.fault_hook = fault_hook
+        self.options = options
         self._problems: dict[Structure, LeagueProblem] = {}
         self._warm: dict[tuple[Structure, tuple[int, ...]], dict[str, np.ndarray]] = {}
 
     def problem(self, structure: Structure) -> LeagueProblem:
         if structure not in self._problems:
             log.debug("building league problem %s", structure)
-            self._problems[structure] = LeagueProblem(structure, self.solver)
+            self._problems[structure] = LeagueProblem(structure, "ipopt", self.options)
         return self._problems[structure]
+
+    def rungs(self, warm: dict[str, np.ndarray] | None) -> list[tuple[str, str, bool]]:
+        """The attempts for one solve: (rung name, method, use the warm start)."""
+        rungs = [("sqp", "sqp", warm is not None)] if self.solver == "ladder" else []
+        if warm is not None:
+            rungs.append(("warm", "ipopt", True))
+        rungs.append(("cold", "ipopt", False))
+        return rungs
 
     def plan(self, structure: Structure, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
         problem = self.problem(structure)
         key = (structure, members)
+        warm = self._warm.get(key)
         start = time.perf_counter()
-        attempts = [self._warm.get(key), None] if key in self._warm else [None]
         status, iterations = "not solved", 0
-        for rung, warm in enumerate(attempts):
+        attempts: list[tuple[str, str]] = []
+        for k, (rung, method, use_warm) in enumerate(self.rungs(warm)):
             try:
-                solution, stats = problem.solve(q, warm)
+                solution, stats = problem.solve(q, warm if use_warm else None, method)
                 if self.fault_hook is not None:
-                    solution, stats = self.fault_hook("warm" if warm else "cold", solution, stats)
+                    solution, stats = self.fault_hook(rung, solution, stats)
             except Exception as err:  # a solver must never crash an episode
-                log.warning("league solve raised %s: %s", type(err).__name__, err)
+                log.warning("league solve (%s) raised %s: %s", rung, type(err).__name__, err)
                 status = f"exception: {type(err).__name__}"
+                attempts.append((rung, status))
                 continue
             status = str(stats.get("return_status", "unknown"))
-            iterations = int(stats.get("iter_count", 0))
-            controls = problem.split(solution["x"])
-            if stats.get("success", False) and np.all(np.isfinite(solution["x"])):
+            iterations += int(stats.get("iter_count", 0))
+            attempts.append((rung, status))
+            x = np.asarray(solution["x"])
+            if stats.get("success", False) and np.all(np.isfinite(x)):
                 self._warm[key] = solution
                 return PlanResult(
-                    controls=np.clip(controls, q.u_lower, q.u_upper),
+                    controls=np.clip(problem.split(x), q.u_lower, q.u_upper),
                     status=status,
                     success=True,
                     iterations=iterations,
                     solve_ms=(time.perf_counter() - start) * 1e3,
-                    fallback="cold" if rung > 0 else "",
+                    fallback=rung if k > 0 else "",
+                    rung=rung,
+                    attempts=tuple(attempts),
                 )
+            log.debug("league %s: %s attempt failed (%s)", members, rung, status)
         self._warm.pop(key, None)
         log.info("league %s: solver failed (%s); holding position", members, status)
         return PlanResult(
@@ -87,4 +130,6 @@ class LeaguePlanner:
             iterations=iterations,
             solve_ms=(time.perf_counter() - start) * 1e3,
             fallback="safe",
+            rung="safe",
+            attempts=tuple(attempts),
         )

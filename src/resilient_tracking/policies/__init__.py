@@ -16,10 +16,11 @@ __all__ = ["Decision", "FailureAwarePolicy", "Policy", "SogPolicy", "VanillaPoli
 def make_policy(
     name: str, scenario: Scenario, config: TeamConfig, planner: LeaguePlanner | None = None
 ) -> Policy:
-    """The policy called ``name`` with its parameters from the scenario.
+    """The policy called ``name`` with its parameters and planner from the scenario.
 
-    ``planner`` replaces the default :class:`LeaguePlanner` (e.g. one with a fault hook).
+    ``planner`` replaces the scenario's :class:`LeaguePlanner` (e.g. one with a fault hook).
     """
+    planner = planner or LeaguePlanner(scenario.planner.solver)
     if name == "vanilla":
         return VanillaPolicy(config, scenario.policy.vanilla, planner)
     if name == "failure_aware":

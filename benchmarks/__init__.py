@@ -1,0 +1,1 @@
+"""Benchmarks of the planner, episodes and sweeps; run ``python -m benchmarks.all``."""
