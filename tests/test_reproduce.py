@@ -20,7 +20,7 @@ from resilient_tracking.experiments.catalog import (
 )
 from resilient_tracking.experiments.claims import check
 from resilient_tracking.experiments.report import write_report
-from resilient_tracking.experiments.sweep import TMP_MARK, is_done, run_dir, run_sweep
+from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
 from resilient_tracking.sim.records import TABLES
 
 TINY = Experiment(
@@ -78,7 +78,7 @@ def test_sweep_stores_each_run_and_skips_finished_ones_on_a_rerun(tmp_path):
     assert run_sweep(todo, tmp_path, jobs=2) == []
     # an interrupted sweep: one run missing, one half-written temporary folder
     shutil.rmtree(run_dir(tmp_path, todo[1]))
-    leftover = run_dir(tmp_path, todo[2]).parent / f"{TMP_MARK}seed-009-dead"
+    leftover = run_dir(tmp_path, todo[2]).parent / ".seed-009.x1y2.partial"
     leftover.mkdir()
     (leftover / "team.parquet").write_bytes(b"half")
     ran = run_sweep(todo, tmp_path, jobs=1)

@@ -62,7 +62,7 @@ def test_sigkill_at_random_moments_then_resume_equals_an_uninterrupted_sweep(tmp
     assert seen_counts == sorted(seen_counts)  # nothing finished is ever lost
     proc = reproduce(killed)
     assert proc.wait(timeout=600) == 0, proc.stderr.read().decode() if proc.stderr else ""
-    assert not list((killed / "runs").glob("*/*/.tmp-*"))
+    assert not list((killed / "runs").glob("*/*/.*"))  # no staging folder left
 
     clean = tmp_path / "clean"
     assert reproduce(clean).wait(timeout=600) == 0

@@ -1,9 +1,10 @@
 """Run many episodes and store each as it finishes; resume where an interrupted sweep stopped.
 
 A run lives in ``OUT/runs/<experiment>/<variant>/seed-NNN/``. It is written into a hidden
-temporary folder beside its final place and renamed when complete, so a run folder is either
-whole or absent, whatever kills the process. A run is skipped when its folder exists and its
-manifest carries the task's fingerprint (scenario, policy, seed); a stale one is run again.
+staging folder beside its final place and renamed when complete (``sim.records.write_run``),
+so a run folder is either whole or absent, whatever kills the process. A run is skipped when
+its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed); a
+stale one is run again.
 
 Episodes run in worker processes (joblib locally, or Dask workers given a scheduler address);
 only the parent process writes, so workers need no shared file system.
@@ -13,9 +14,7 @@ from __future__ import annotations
 
 import json
 import logging
-import os
 import shutil
-import uuid
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
@@ -25,7 +24,8 @@ from resilient_tracking.sim.records import EpisodeResult, write_run
 
 log = logging.getLogger(__name__)
 
-TMP_MARK = ".tmp-"
+#: Names of the hidden folders ``write_run`` stages a run in (left behind only by a kill).
+PARTIAL = (".*.partial", ".*.old")
 
 
 def run_dir(out: Path, task: Task) -> Path:
@@ -55,21 +55,19 @@ def run_task(task: Task) -> tuple[str, EpisodeResult]:
 
 
 def store(out: Path, task: Task, result: EpisodeResult) -> Path:
-    """Write a finished run atomically: a temporary folder, then one rename."""
-    final = run_dir(out, task)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = final.parent / f"{TMP_MARK}{final.name}-{uuid.uuid4().hex[:8]}"
-    write_run(result, tmp)
-    if final.exists():  # a stale run of an older scenario or policy
-        shutil.rmtree(final)
-    os.replace(tmp, final)
-    return final
+    """Write a finished run; ``write_run`` stages it and renames it into place, replacing a
+    stale run of the same id."""
+    return write_run(result, run_dir(out, task))
 
 
 def clean_partial(out: Path) -> int:
-    """Remove temporary folders left by a killed sweep; returns how many."""
+    """Remove staging folders left by a killed sweep; returns how many."""
     runs = Path(out) / "runs"
-    leftovers = [p for p in runs.glob(f"*/*/{TMP_MARK}*") if p.is_dir()] if runs.exists() else []
+    leftovers = (
+        [p for pattern in PARTIAL for p in runs.glob(f"*/*/{pattern}") if p.is_dir()]
+        if runs.exists()
+        else []
+    )
     for p in leftovers:
         shutil.rmtree(p, ignore_errors=True)
     return len(leftovers)
