@@ -220,7 +220,7 @@ def test_risky_team_is_hit_more_often_than_a_conservative_one_in_sensing_perm():
 
 
 def test_a_solver_failure_holds_position_and_is_recorded(monkeypatch):
-    def broken(self, q, warm=None):
+    def broken(self, q, warm=None, method=None):
         raise RuntimeError("injected")
 
     monkeypatch.setattr(SogProblem, "solve", broken)
@@ -232,6 +232,18 @@ def test_a_solver_failure_holds_position_and_is_recorded(monkeypatch):
     fallbacks = [e for e in out.events if e.event == "solver_fallback"]
     assert sorted(e.robot for e in fallbacks) == [0, 1, 2]
     assert all("safe" in e.detail for e in fallbacks)
+
+
+def test_the_episode_fault_hook_reaches_the_sog_planner():
+    """SOG solves through the same ladder as the league planner, so injected faults reach it."""
+
+    def infeasible(rung, solution, stats):
+        return solution, {**stats, "success": False, "return_status": "Infeasible_Problem_Detected"}
+
+    s = shipped("sensing-temp").with_overrides(steps=5)
+    events = run_episode(s, policy="sog", seed=1, fault_hook=infeasible)["events"]
+    fallbacks = events[events.event == "solver_fallback"]
+    assert len(fallbacks) == 5 * 3 and fallbacks.detail.str.startswith("safe").all()
 
 
 def test_rtrack_run_with_sog_writes_the_run_folder(tmp_path, capsys):

@@ -52,31 +52,27 @@ class PlanResult:
 FaultHook = Callable[[str, dict[str, Any], dict[str, Any]], tuple[dict[str, Any], dict[str, Any]]]
 
 
-class LeaguePlanner:
-    """Holds one problem per structure and a warm start per league membership.
-
-    ``solver`` is ``"ladder"`` (SQP first, then IPOPT) or ``"ipopt"`` (IPOPT only); ``options``
-    are passed to every :class:`LeagueProblem`.
+class SolverLadder:
+    """The never-crashing ladder over any problem with ``solve(q, warm, method)`` and
+    ``split(x)``: one problem per structure (built by :meth:`build`), a warm start per league
+    membership. ``solver`` is ``"ladder"`` (SQP first, then IPOPT) or ``"ipopt"`` (IPOPT only).
     """
 
-    def __init__(
-        self,
-        solver: str = "ladder",
-        fault_hook: FaultHook | None = None,
-        options: dict[str, Any] | None = None,
-    ):
+    def __init__(self, solver: str = "ladder", fault_hook: FaultHook | None = None):
         if solver not in SOLVERS:
             raise ValueError(f"solver: expected one of {SOLVERS}, got {solver!r}")
         self.solver = solver
         self.fault_hook = fault_hook
-        self.options = options
-        self._problems: dict[Structure, LeagueProblem] = {}
-        self._warm: dict[tuple[Structure, tuple[int, ...]], dict[str, np.ndarray]] = {}
+        self._problems: dict[Any, Any] = {}
+        self._warm: dict[tuple[Any, tuple[int, ...]], dict[str, np.ndarray]] = {}
 
-    def problem(self, structure: Structure) -> LeagueProblem:
+    def build(self, structure: Any) -> Any:
+        raise NotImplementedError
+
+    def problem(self, structure: Any) -> Any:
         if structure not in self._problems:
-            log.debug("building league problem %s", structure)
-            self._problems[structure] = LeagueProblem(structure, "ipopt", self.options)
+            log.debug("building %s for %s", type(self).__name__, structure)
+            self._problems[structure] = self.build(structure)
         return self._problems[structure]
 
     def rungs(self, warm: dict[str, np.ndarray] | None) -> list[tuple[str, str, bool]]:
@@ -87,7 +83,7 @@ class LeaguePlanner:
         rungs.append(("cold", "ipopt", False))
         return rungs
 
-    def plan(self, structure: Structure, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
+    def plan(self, structure: Any, members: tuple[int, ...], q: Any) -> PlanResult:
         problem = self.problem(structure)
         key = (structure, members)
         warm = self._warm.get(key)
@@ -133,3 +129,27 @@ class LeaguePlanner:
             rung="safe",
             attempts=tuple(attempts),
         )
+
+
+class LeaguePlanner(SolverLadder):
+    """The ladder over the league problems of SPEC §4; ``options`` are passed to every
+    :class:`LeagueProblem`."""
+
+    def __init__(
+        self,
+        solver: str = "ladder",
+        fault_hook: FaultHook | None = None,
+        options: dict[str, Any] | None = None,
+    ):
+        super().__init__(solver, fault_hook)
+        self.options = options
+
+    def build(self, structure: Structure) -> LeagueProblem:
+        return LeagueProblem(structure, "ipopt", self.options)
+
+    def problem(self, structure: Structure) -> LeagueProblem:
+        problem: LeagueProblem = super().problem(structure)
+        return problem
+
+    def plan(self, structure: Structure, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
+        return super().plan(structure, members, q)

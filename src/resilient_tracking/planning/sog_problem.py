@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import logging
 import math
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from resilient_tracking.planning.league_problem import measurement_information
-from resilient_tracking.planning.planner import PlanResult
+from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
 
 log = logging.getLogger(__name__)
 
@@ -238,9 +237,10 @@ class SogProblem:
         return np.asarray(decision[: 2 * self.structure.n_robots]).reshape(-1, 2)
 
     def solve(
-        self, q: SogInputs, warm: dict[str, np.ndarray] | None = None
+        self, q: SogInputs, warm: dict[str, np.ndarray] | None = None, method: str | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Solve once; returns (solution with x, lam_x, lam_g, f; solver stats)."""
+        """Solve once with IPOPT (``method`` is accepted for the ladder; only IPOPT is built);
+        returns (solution with x, lam_x, lam_g, f; solver stats)."""
         lbx, ubx = self.bounds(q)
         args: dict[str, Any] = {
             "p": self.pack_params(q),
@@ -260,54 +260,16 @@ class SogProblem:
         return solution, dict(self.solver.stats())
 
 
-class SogPlanner:
-    """One :class:`SogProblem` per structure, a warm start per league membership, and the
-    never-crashing ladder of SPEC §7: warm solve → cold solve → hold position."""
+class SogPlanner(SolverLadder):
+    """The planner's never-crashing ladder (IPOPT warm → cold → hold position) over
+    :class:`SogProblem`; one problem per structure, a warm start per league membership."""
 
-    def __init__(self, solver: str = "ipopt"):
-        self.solver = solver
-        self._problems: dict[SogStructure, SogProblem] = {}
-        self._warm: dict[tuple[SogStructure, tuple[int, ...]], dict[str, np.ndarray]] = {}
+    def __init__(self, fault_hook: FaultHook | None = None):
+        super().__init__("ipopt", fault_hook)
 
-    def problem(self, structure: SogStructure) -> SogProblem:
-        if structure not in self._problems:
-            log.debug("building SOG problem %s", structure)
-            self._problems[structure] = SogProblem(structure, self.solver)
-        return self._problems[structure]
+    def build(self, structure: SogStructure) -> SogProblem:
+        return SogProblem(structure)
 
-    def plan(self, members: tuple[int, ...], q: SogInputs) -> PlanResult:
+    def plan_sog(self, members: tuple[int, ...], q: SogInputs) -> PlanResult:
         structure = SogStructure(len(q.positions), len(q.targets), len(q.zones))
-        problem = self.problem(structure)
-        key = (structure, members)
-        start = time.perf_counter()
-        attempts = [self._warm.get(key), None] if key in self._warm else [None]
-        status, iterations = "not solved", 0
-        for rung, warm in enumerate(attempts):
-            try:
-                solution, stats = problem.solve(q, warm)
-            except Exception as err:  # a solver must never crash an episode
-                log.warning("SOG solve raised %s: %s", type(err).__name__, err)
-                status = f"exception: {type(err).__name__}"
-                continue
-            status = str(stats.get("return_status", "unknown"))
-            iterations = int(stats.get("iter_count", 0))
-            if stats.get("success", False) and np.all(np.isfinite(solution["x"])):
-                self._warm[key] = solution
-                return PlanResult(
-                    controls=np.clip(problem.split(solution["x"]), q.u_lower, q.u_upper),
-                    status=status,
-                    success=True,
-                    iterations=iterations,
-                    solve_ms=(time.perf_counter() - start) * 1e3,
-                    fallback="cold" if rung > 0 else "",
-                )
-        self._warm.pop(key, None)
-        log.info("SOG league %s: solver failed (%s); holding position", members, status)
-        return PlanResult(
-            controls=np.clip(np.zeros((structure.n_robots, 2)), q.u_lower, q.u_upper),
-            status=status,
-            success=False,
-            iterations=iterations,
-            solve_ms=(time.perf_counter() - start) * 1e3,
-            fallback="safe",
-        )
+        return self.plan(structure, members, q)

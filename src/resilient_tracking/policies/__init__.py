@@ -26,5 +26,5 @@ def make_policy(
     if name == "failure_aware":
         return FailureAwarePolicy(config, scenario.policy.failure_aware, planner)
     if name == "sog":
-        return SogPolicy(config, scenario.policy.sog)
+        return SogPolicy(config, scenario.policy.sog, planner)
     raise ValueError(f"policy: unknown name {name!r}")

@@ -56,7 +56,7 @@ class SogPolicy(Policy):
     ):
         super().__init__(config, planner)
         self.params = params
-        self.sog_planner = sog_planner or SogPlanner()
+        self.sog_planner = sog_planner or SogPlanner(self.planner.fault_hook)
         #: ``(w_track, w_risk)`` used at the last tick (for inspection and tests)
         self.last_weights = abundance_weights(params, 1.0)
 
@@ -100,7 +100,7 @@ class SogPolicy(Policy):
                 risk_scale=self.risk_scale(),
                 survival_scale=self.survival_scale(),
             )
-            result = self.sog_planner.plan(tuple(robots), q)
+            result = self.sog_planner.plan_sog(tuple(robots), q)
             decision.plans.append(result)
             if result.fallback:
                 for i in robots:
