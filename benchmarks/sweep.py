@@ -39,7 +39,6 @@ def sweep(runs: list[tuple[str, int]], jobs: int) -> tuple[float, list[float], f
     """Wall seconds, traces and the episodes' summed CPU seconds of one sweep, started as a
     fresh sweep would: problems not yet built in this process, new worker processes."""
     league_problem._NLPS.clear()
-    league_problem._JOBS.clear()
     get_reusable_executor().shutdown(wait=True)
     start = time.perf_counter()
     out = Parallel(n_jobs=jobs)(delayed(one)(name, seed) for name, seed in runs)

@@ -8,7 +8,7 @@ import pytest
 
 from conftest import shipped
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import TABLES, write_run
+from resilient_tracking.sim.records import TABLES, ColumnTable, write_run
 
 
 def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
@@ -85,3 +85,19 @@ def test_vanilla_in_sensing_perm_every_robot_attacked_then_trace_explodes(seed):
     still = robots[robots.step > last]
     assert (still[["ux", "uy"]].abs().max() < 1e-9).all()  # immobilised
     assert set(still["mode"]) == {"idle"}
+
+
+def test_column_tables_grow_in_blocks_and_keep_dtypes():
+    table = ColumnTable({"step": np.int64, "x": np.float64, "ok": np.bool_, "mode": object})
+    for k in range(40):  # past the initial capacity, several doublings
+        modes = np.empty(3, dtype=object)
+        modes[:] = ["track", "evade", "track"]
+        table.append(
+            step=k, x=np.arange(3) + 0.5 * k, ok=np.array([True, False, k % 2 == 0]), mode=modes
+        )
+    frame = table.frame()
+    assert len(table) == len(frame) == 120
+    assert frame["step"].tolist() == [k for k in range(40) for _ in range(3)]
+    assert frame["x"].iloc[-1] == 2 + 0.5 * 39
+    assert frame["ok"].dtype == bool and frame["ok"].tolist()[-3:] == [True, False, False]
+    assert frame["mode"].tolist()[:3] == ["track", "evade", "track"]

@@ -1,11 +1,12 @@
-"""Soak run (docs/reliability.md): a long episode, memory at checkpoints, NaN check.
+"""Soak run (docs/reliability.md §4): a long episode, memory sampled along it, NaN check.
 
-    python tools/soak.py                                   # soak-20x20, 2000 steps, 500/2000
+    python tools/soak.py                                   # soak-20x20, 2000 steps
     python tools/soak.py scenarios/soak-20x20.yaml --steps 100 --checkpoints 50 100
 
-Prints peak RSS and the traced Python heap (recorded rows vs. everything else) at each
-checkpoint, the events by kind and any table cell that is NaN/inf. Exit status 1 when a table
-holds a non-finite number or the non-record heap grew by more than --max-growth-mb.
+Prints the resident memory (now and peak) and the cache of league problems at each
+checkpoint; the leak (memory gained over stretches in which no new problem structure was
+built); the events by kind and any table cell that is NaN/inf. Exit status 1 when a table holds
+a non-finite number or the leak exceeds --max-leak-mb.
 """
 
 from __future__ import annotations
@@ -28,12 +29,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--checkpoints", type=int, nargs="+", default=[500, 2000])
     parser.add_argument("--policy", default=None)
     parser.add_argument("--seed", type=int, default=None)
-    parser.add_argument("--max-growth-mb", type=float, default=5.0)
+    parser.add_argument("--sample-every", type=int, default=50)
+    parser.add_argument("--max-leak-mb", type=float, default=5.0)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     try:
         scenario = load_scenario(args.scenario)
-        report = soak(scenario, args.steps, tuple(args.checkpoints), args.policy, args.seed)
+        report = soak(
+            scenario,
+            args.steps,
+            tuple(args.checkpoints),
+            args.policy,
+            args.seed,
+            args.sample_every,
+        )
     except ScenarioError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
@@ -42,19 +51,24 @@ def main(argv: list[str] | None = None) -> int:
         f"in {report.wall_s:.0f} s"
     )
     print(
-        f"{'step':>6} {'RSS MB':>8} {'peak RSS MB':>12} {'heap MB':>9} {'records MB':>11} "
-        f"{'other MB':>9}"
+        f"{'step':>6} {'RSS MB':>8} {'peak RSS MB':>12} {'problems cached':>16} "
+        f"{'cache weight':>13} {'built so far':>13}"
     )
-    for c in report.checkpoints:
+    for c in report.at_checkpoints():
         print(
-            f"{c.step:>6} {c.rss_mb:>8.1f} {c.peak_rss_mb:>12.1f} {c.traced_mb:>9.1f} "
-            f"{c.records_mb:>11.1f} {c.other_mb:>9.1f}"
+            f"{c.step:>6} {c.rss_mb:>8.1f} {c.peak_rss_mb:>12.1f} {c.cached:>16} "
+            f"{c.cache_weight:>13.3g} {c.builds:>13}"
         )
-    growth = report.other_growth_mb()
-    print(f"non-record heap growth, first to last checkpoint: {growth:+.2f} MB")
+    leak = report.leak_mb()
+    print(f"cache budget: {report.cache_budget:.3g} instructions")
+    print(f"RSS growth, first to last checkpoint: {report.growth_mb():+.1f} MB")
+    print(
+        f"leak (growth while no structure was built, every {args.sample_every} steps): "
+        f"{leak:.2f} MB"
+    )
     print("events: " + ", ".join(f"{k} {v}" for k, v in sorted(report.events.items())))
     print(f"non-finite table cells: {report.non_finite or 'none'}")
-    return 0 if report.finite and growth <= args.max_growth_mb else 1
+    return 0 if report.finite and leak <= args.max_leak_mb else 1
 
 
 if __name__ == "__main__":

@@ -48,6 +48,7 @@ import casadi as ca
 import numpy as np
 
 from resilient_tracking.planning import codegen
+from resilient_tracking.planning.cache import LruCache
 
 log = logging.getLogger(__name__)
 
@@ -458,6 +459,10 @@ class LeagueNLP:
             "nlp_hess_l", hess_in, [exact_triu], hess_names, ["triu_hess_gamma_x_x"]
         )
         self.nlp = {"x": x, "p": p, "f": f, "g": g_vec}
+        #: size of the symbolic code (≈ 40 bytes of memory per instruction): the cache's weight
+        self.n_instructions = sum(fn.n_instructions() for fn in self.functions.values())
+        #: compile jobs of this problem's functions, by (method, SQP Hessian)
+        self.jobs: dict[tuple[str, str], codegen.CompiledFunctions | None] = {}
 
 
 #: IPOPT settings of the robust rungs (warm and cold start).
@@ -558,27 +563,37 @@ class _BufferedCall:
             return {"success": False, "return_status": f"no stats ({err.__class__.__name__})"}
 
 
-#: Symbolic problems and compile jobs, shared process-wide: building them is the expensive,
-#: stateless part. Solvers are not shared: qpOASES keeps state from one solve to the next, so
-#: a solver's results depend on its history, which must be the episode's own.
-_NLPS: dict[tuple[Structure, float], LeagueNLP] = {}
-_JOBS: dict[tuple[Structure, float, str, str], codegen.CompiledFunctions | None] = {}
+#: Symbolic problems (with their compile jobs), shared process-wide: building them is the
+#: expensive, stateless part. Solvers are not shared: qpOASES keeps state from one solve to the
+#: next, so a solver's results depend on its history, which must be the episode's own. The
+#: least recently used problems beyond ``NLP_BUDGET`` instructions (≈ 160 MB) are forgotten.
+NLP_BUDGET = 4_000_000
+_NLPS: LruCache[tuple[Structure, float], LeagueNLP] = LruCache(
+    NLP_BUDGET, weigh=lambda nlp: nlp.n_instructions
+)
+
+
+def nlp_cache() -> LruCache[tuple[Structure, float], LeagueNLP]:
+    """The process-wide cache of symbolic problems (its size, builds and evictions)."""
+    return _NLPS
 
 
 def shared_nlp(structure: Structure, margin: float = SQP_MARGIN) -> LeagueNLP:
     """The process-wide :class:`LeagueNLP` of ``structure`` (built on first use)."""
-    key = (structure, margin)
-    if key not in _NLPS:
+
+    def build() -> LeagueNLP:
         log.debug("building league problem %s", structure)
-        _NLPS[key] = LeagueNLP(structure, margin)
-    return _NLPS[key]
+        return LeagueNLP(structure, margin)
+
+    return _NLPS.get((structure, margin), build)
 
 
 def wait_for_compilers() -> None:
     """Block until every compile job started in this process is done (for warm-ups)."""
-    for job in list(_JOBS.values()):
-        if job is not None:
-            job.wait()
+    for nlp in _NLPS.values():
+        for job in list(nlp.jobs.values()):
+            if job is not None:
+                job.wait()
 
 
 class LeagueProblem:
@@ -643,12 +658,14 @@ class LeagueProblem:
         """The (shared) compile job of ``method``'s functions; None when codegen is off."""
         if not self.options.get("codegen", True):
             return None
-        key = (self.structure, self.margin, method, self._sqp_hessian)
-        if key not in _JOBS:
+        key = (method, self._sqp_hessian)
+        if key not in self.nlp.jobs:
             s = self.structure
             label = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c"
-            _JOBS[key] = codegen.compile_functions(self._functions(method), f"{label}_{method}")
-        return _JOBS[key]
+            self.nlp.jobs[key] = codegen.compile_functions(
+                self._functions(method), f"{label}_{method}"
+            )
+        return self.nlp.jobs[key]
 
     def _call(self, method: str) -> _BufferedCall:
         if method not in self._calls:

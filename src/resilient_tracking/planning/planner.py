@@ -17,13 +17,20 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from resilient_tracking.planning.league_problem import LeagueProblem, ProblemInputs, Structure
+from resilient_tracking.planning.cache import LruCache
+from resilient_tracking.planning.league_problem import (
+    NLP_BUDGET,
+    LeagueProblem,
+    ProblemInputs,
+    Structure,
+)
 
 log = logging.getLogger(__name__)
 
@@ -58,22 +65,47 @@ class SolverLadder:
     membership. ``solver`` is ``"ladder"`` (SQP first, then IPOPT) or ``"ipopt"`` (IPOPT only).
     """
 
+    #: the problem cache's budget in units of :meth:`weigh` (here: a number of problems)
+    PROBLEM_BUDGET: float = 32
+    #: how many league memberships keep their last solution as a warm start
+    WARM_STARTS = 256
+
     def __init__(self, solver: str = "ladder", fault_hook: FaultHook | None = None):
         if solver not in SOLVERS:
             raise ValueError(f"solver: expected one of {SOLVERS}, got {solver!r}")
         self.solver = solver
         self.fault_hook = fault_hook
-        self._problems: dict[Any, Any] = {}
-        self._warm: dict[tuple[Any, tuple[int, ...]], dict[str, np.ndarray]] = {}
+        # bounded, so that a long mission meeting ever new structures keeps a flat memory
+        self._problems: LruCache[Any, Any] = LruCache(
+            self.PROBLEM_BUDGET, weigh=self.weigh, on_evict=self._forget
+        )
+        self._warm: OrderedDict[tuple[Any, tuple[int, ...]], dict[str, np.ndarray]] = (
+            OrderedDict()
+        )
 
     def build(self, structure: Any) -> Any:
         raise NotImplementedError
 
+    def weigh(self, problem: Any) -> float:
+        """A problem's share of :attr:`PROBLEM_BUDGET`."""
+        return 1.0
+
     def problem(self, structure: Any) -> Any:
-        if structure not in self._problems:
+        def build() -> Any:
             log.debug("building %s for %s", type(self).__name__, structure)
-            self._problems[structure] = self.build(structure)
-        return self._problems[structure]
+            return self.build(structure)
+
+        return self._problems.get(structure, build)
+
+    def _forget(self, structure: Any, problem: Any) -> None:
+        for key in [key for key in self._warm if key[0] == structure]:
+            del self._warm[key]
+
+    def _keep_warm(self, key: tuple[Any, tuple[int, ...]], solution: dict[str, np.ndarray]) -> None:
+        self._warm[key] = solution
+        self._warm.move_to_end(key)
+        while len(self._warm) > self.WARM_STARTS:
+            self._warm.popitem(last=False)
 
     def rungs(self, warm: dict[str, np.ndarray] | None) -> list[tuple[str, str, bool]]:
         """The attempts for one solve: (rung name, method, use the warm start)."""
@@ -105,7 +137,7 @@ class SolverLadder:
             attempts.append((rung, status))
             x = np.asarray(solution["x"])
             if stats.get("success", False) and np.all(np.isfinite(x)):
-                self._warm[key] = solution
+                self._keep_warm(key, solution)
                 return PlanResult(
                     controls=np.clip(problem.split(x), q.u_lower, q.u_upper),
                     status=status,
@@ -144,8 +176,14 @@ class LeaguePlanner(SolverLadder):
         super().__init__(solver, fault_hook)
         self.options = options
 
+    #: ≈ 160 MB of symbolic code and solvers: four 20×20 structures, hundreds of 3×3 ones
+    PROBLEM_BUDGET = NLP_BUDGET
+
     def build(self, structure: Structure) -> LeagueProblem:
         return LeagueProblem(structure, "ipopt", self.options)
+
+    def weigh(self, problem: LeagueProblem) -> float:
+        return float(problem.nlp.n_instructions)
 
     def problem(self, structure: Structure) -> LeagueProblem:
         problem: LeagueProblem = super().problem(structure)

@@ -25,7 +25,7 @@ from resilient_tracking.policies import make_policy
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.sim.metrics import effort, mse
-from resilient_tracking.sim.records import EpisodeResult, frame
+from resilient_tracking.sim.records import ColumnTable, EpisodeResult, frame
 from resilient_tracking.team import Team, TeamStep
 from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world import World
@@ -44,16 +44,57 @@ def initial_estimate(scenario: Scenario, world: World, seed: int) -> TargetEstim
     )
 
 
+INT, FLOAT, BOOL = np.int64, np.float64, np.bool_
+
+
 class _Recorder:
-    """Collects rows while the episode runs."""
+    """Collects rows while the episode runs: the per-step tables as compact columns."""
 
     def __init__(self, world: World):
-        self.team: list[dict[str, Any]] = []
-        self.robots: list[dict[str, Any]] = []
-        self.targets: list[dict[str, Any]] = []
+        self.team = ColumnTable(
+            {
+                "step": INT,
+                "time": FLOAT,
+                "mse": FLOAT,
+                "trace": FLOAT,
+                "effort": FLOAT,
+                "n_sensing_failed": INT,
+                "n_comm_failed": INT,
+                "n_leagues": INT,
+                "n_solves": INT,
+                "n_solver_failures": INT,
+                "solver_iterations": INT,
+            }
+        )
+        self.robots = ColumnTable(
+            {
+                "step": INT,
+                "robot": INT,
+                "x": FLOAT,
+                "y": FLOAT,
+                "ux": FLOAT,
+                "uy": FLOAT,
+                "sensing_ok": BOOL,
+                "comm_ok": BOOL,
+                "league": INT,
+                "mode": object,
+            }
+        )
+        self.targets = ColumnTable(
+            {
+                "step": INT,
+                "target": INT,
+                "x": FLOAT,
+                "y": FLOAT,
+                "est_x": FLOAT,
+                "est_y": FLOAT,
+                "var_x": FLOAT,
+                "var_y": FLOAT,
+            }
+        )
+        self.timing = ColumnTable({"step": INT, "plan_ms": FLOAT})
         self.events: list[dict[str, Any]] = []
         self.knowledge: list[dict[str, Any]] = []
-        self.timing: list[dict[str, Any]] = []
         self.zones = [
             {
                 "zone": z.id,
@@ -122,60 +163,55 @@ class _Recorder:
         est = belief.team_estimate()
         plans = out.decision.plans
         self.team.append(
-            {
-                "step": k,
-                "time": obs.time,
-                "mse": mse(est.mean[:, :2], truth[:, :2]),
-                "trace": est.position_trace(),
-                "effort": effort(applied),
-                "n_sensing_failed": int((~obs.sensing_ok).sum()),
-                "n_comm_failed": int((~obs.comm_ok).sum()),
-                "n_leagues": len(belief.leagues),
-                "n_solves": len(plans),
-                "n_solver_failures": sum(not p.success for p in plans),
-                "solver_iterations": sum(p.iterations for p in plans),
-            }
+            step=k,
+            time=obs.time,
+            mse=mse(est.mean[:, :2], truth[:, :2]),
+            trace=est.position_trace(),
+            effort=effort(applied),
+            n_sensing_failed=int((~obs.sensing_ok).sum()),
+            n_comm_failed=int((~obs.comm_ok).sum()),
+            n_leagues=len(belief.leagues),
+            n_solves=len(plans),
+            n_solver_failures=sum(not p.success for p in plans),
+            solver_iterations=sum(p.iterations for p in plans),
         )
-        self.timing.append({"step": k, "plan_ms": out.decision.plan_ms})
-        for i in range(obs.n_robots):
-            self.robots.append(
-                {
-                    "step": k,
-                    "robot": i,
-                    "x": obs.positions[i, 0],
-                    "y": obs.positions[i, 1],
-                    "ux": applied[i, 0],
-                    "uy": applied[i, 1],
-                    "sensing_ok": bool(obs.sensing_ok[i]),
-                    "comm_ok": bool(obs.comm_ok[i]),
-                    "league": int(belief.league_of[i]),
-                    "mode": out.decision.modes[i],
-                }
-            )
+        self.timing.append(step=k, plan_ms=out.decision.plan_ms)
+        n = obs.n_robots
+        modes = np.empty(n, dtype=object)
+        modes[:] = out.decision.modes
+        self.robots.append(
+            step=k,
+            robot=np.arange(n),
+            x=obs.positions[:, 0],
+            y=obs.positions[:, 1],
+            ux=applied[:, 0],
+            uy=applied[:, 1],
+            sensing_ok=obs.sensing_ok,
+            comm_ok=obs.comm_ok,
+            league=belief.league_of,
+            mode=modes,
+        )
         var = np.diagonal(est.cov, axis1=1, axis2=2)
-        for j in range(len(truth)):
-            self.targets.append(
-                {
-                    "step": k,
-                    "target": j,
-                    "x": truth[j, 0],
-                    "y": truth[j, 1],
-                    "est_x": est.mean[j, 0],
-                    "est_y": est.mean[j, 1],
-                    "var_x": var[j, 0],
-                    "var_y": var[j, 1],
-                }
-            )
+        self.targets.append(
+            step=k,
+            target=np.arange(len(truth)),
+            x=truth[:, 0],
+            y=truth[:, 1],
+            est_x=est.mean[:, 0],
+            est_y=est.mean[:, 1],
+            var_x=var[:, 0],
+            var_y=var[:, 1],
+        )
 
     def result(self, manifest: dict[str, Any]) -> EpisodeResult:
         tables = {
-            "team": frame(self.team, "team"),
-            "robots": frame(self.robots, "robots"),
-            "targets": frame(self.targets, "targets"),
+            "team": self.team.frame(),
+            "robots": self.robots.frame(),
+            "targets": self.targets.frame(),
             "events": frame(self.events, "events"),
             "zones": frame(self.zones, "zones"),
             "knowledge": frame(self.knowledge, "knowledge"),
-            "timing": frame(self.timing, "timing"),
+            "timing": self.timing.frame(),
         }
         return EpisodeResult(tables=tables, manifest=manifest)
 

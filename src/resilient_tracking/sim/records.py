@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 #: Tables that are identical, bit for bit, for the same scenario and seed.
@@ -53,6 +54,38 @@ class EpisodeResult:
 
     def __getitem__(self, name: str) -> pd.DataFrame:
         return self.tables[name]
+
+
+class ColumnTable:
+    """A table that grows a block of rows at a time, stored as NumPy columns.
+
+    The per-step tables (a row per robot and per target every step) would otherwise hold a
+    Python dict and a boxed number per cell: about 1 kB per row, the bulk of a long run's
+    memory. Columns double their capacity when full, so appending is amortised O(rows).
+    """
+
+    def __init__(self, dtypes: dict[str, Any]):
+        self._columns = {name: np.empty(16, dtype=dtype) for name, dtype in dtypes.items()}
+        self._rows = 0
+
+    def __len__(self) -> int:
+        return self._rows
+
+    def append(self, **values: Any) -> None:
+        """Append rows: every column gets an array (or a scalar, broadcast) of the same length."""
+        blocks = {name: np.asarray(values[name]) for name in self._columns}
+        count = max((b.shape[0] for b in blocks.values() if b.ndim), default=1)
+        end = self._rows + count
+        for name, column in self._columns.items():
+            if end > len(column):
+                grown = np.empty(max(end, 2 * len(column)), dtype=column.dtype)
+                grown[: self._rows] = column[: self._rows]
+                self._columns[name] = column = grown
+            column[self._rows : end] = blocks[name]
+        self._rows = end
+
+    def frame(self) -> pd.DataFrame:
+        return pd.DataFrame({name: c[: self._rows].copy() for name, c in self._columns.items()})
 
 
 def frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:

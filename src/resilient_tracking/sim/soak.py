@@ -1,10 +1,12 @@
-"""Soak runs (issue #6, item 4): a long episode with memory measured along the way.
+"""Soak runs (issue #6, item 4): a long episode with its memory sampled along the way.
 
-:func:`soak` runs one episode and, at given steps, records the process's peak resident memory
-(``getrusage``) and the Python heap traced by :mod:`tracemalloc`, split into the rows the episode
-recorder keeps (allocated in ``sim/episode.py``, growing by design with the number of steps) and
-everything else (belief, planner caches, solver problems, world), which must stay flat. After
-the run it checks every table for NaN/inf. ``tools/soak.py`` prints the report.
+:func:`soak` runs one episode and every ``sample_every`` steps reads the process's resident set
+size (``/proc/self/statm``) and peak (``getrusage``), and the process-wide cache of league
+problems (:func:`~resilient_tracking.planning.league_problem.nlp_cache`). Memory may grow only
+when a new problem structure is built (a zone learned, a league split), and that is bounded by
+the cache's budget; :meth:`SoakReport.leak_mb` sums the growth over the stretches in which no
+structure was built, which must stay near zero. After the run every table is checked for NaN/inf.
+``tools/soak.py`` prints the report.
 """
 
 from __future__ import annotations
@@ -13,14 +15,13 @@ import logging
 import resource
 import sys
 import time
-import tracemalloc
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from resilient_tracking.planning.league_problem import nlp_cache
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.sim import episode as episode_module
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import EpisodeResult
 
@@ -30,16 +31,16 @@ MB = 1024 * 1024
 
 
 @dataclass(frozen=True)
-class MemoryCheckpoint:
+class MemorySample:
     step: int
-    #: peak resident set size of the process so far (MB)
-    peak_rss_mb: float
-    #: resident set size now (MB; NaN where /proc is not available)
+    #: resident set size now, and the process's peak so far (MB)
     rss_mb: float
-    #: Python heap currently traced (MB), and its split
-    traced_mb: float
-    records_mb: float
-    other_mb: float
+    peak_rss_mb: float
+    #: league problems in the process-wide cache, their weight (instructions), and how many
+    #: were built so far
+    cached: int
+    cache_weight: float
+    builds: int
 
 
 @dataclass
@@ -49,7 +50,10 @@ class SoakReport:
     seed: int
     steps: int
     wall_s: float
-    checkpoints: list[MemoryCheckpoint] = field(default_factory=list)
+    samples: list[MemorySample] = field(default_factory=list)
+    #: the steps whose samples are printed
+    checkpoints: tuple[int, ...] = ()
+    cache_budget: float = 0.0
     #: tables with a NaN or infinite number, and how many such cells
     non_finite: dict[str, int] = field(default_factory=dict)
     events: dict[str, int] = field(default_factory=dict)
@@ -58,11 +62,18 @@ class SoakReport:
     def finite(self) -> bool:
         return not self.non_finite
 
-    def other_growth_mb(self) -> float:
-        """Growth of the non-record heap between the first and last checkpoint."""
-        if len(self.checkpoints) < 2:
-            return 0.0
-        return self.checkpoints[-1].other_mb - self.checkpoints[0].other_mb
+    def at_checkpoints(self) -> list[MemorySample]:
+        return [s for s in self.samples if s.step in self.checkpoints]
+
+    def leak_mb(self) -> float:
+        """Resident memory gained between samples with no new problem structure built."""
+        pairs = zip(self.samples, self.samples[1:], strict=False)
+        return sum(max(b.rss_mb - a.rss_mb, 0.0) for a, b in pairs if b.builds == a.builds)
+
+    def growth_mb(self) -> float:
+        """Resident memory gained from the first to the last checkpoint."""
+        marks = self.at_checkpoints()
+        return marks[-1].rss_mb - marks[0].rss_mb if len(marks) > 1 else 0.0
 
 
 def _peak_rss_mb() -> float:
@@ -76,17 +87,6 @@ def _rss_mb() -> float:
     except (OSError, IndexError, ValueError):
         return float("nan")
     return pages * resource.getpagesize() / MB
-
-
-def _heap_split() -> tuple[float, float, float]:
-    recorder_file = str(Path(episode_module.__file__).resolve())
-    snapshot = tracemalloc.take_snapshot()
-    total = records = 0
-    for stat in snapshot.statistics("filename"):
-        total += stat.size
-        if str(Path(stat.traceback[0].filename).resolve()) == recorder_file:
-            records += stat.size
-    return total / MB, records / MB, (total - records) / MB
 
 
 def non_finite_cells(result: EpisodeResult) -> dict[str, int]:
@@ -107,32 +107,31 @@ def soak(
     checkpoints: tuple[int, ...] = (500, 2000),
     policy: str | None = None,
     seed: int | None = None,
+    sample_every: int = 50,
 ) -> SoakReport:
-    """Run ``steps`` steps (default: the scenario's) measuring memory at ``checkpoints``."""
+    """Run ``steps`` steps (default: the scenario's), sampling memory every ``sample_every``
+    steps and at ``checkpoints``."""
     if steps is not None:
         scenario = scenario.with_overrides(steps=steps)
-    marks = sorted({c for c in checkpoints if 0 < c <= scenario.steps} | {scenario.steps})
-    taken: list[MemoryCheckpoint] = []
+    marks = tuple(sorted({c for c in checkpoints if 0 < c <= scenario.steps} | {scenario.steps}))
+    cache = nlp_cache()
+    samples: list[MemorySample] = []
     done = 0
+
+    def sample() -> None:
+        point = MemorySample(done, _rss_mb(), _peak_rss_mb(), len(cache), cache.total, cache.builds)
+        log.debug("soak step %d: %s", done, point)
+        samples.append(point)
 
     def progress(n: int) -> None:
         nonlocal done
         done += n
-        if done in marks:
-            traced, records, other = _heap_split()
-            point = MemoryCheckpoint(done, _peak_rss_mb(), _rss_mb(), traced, records, other)
-            log.info("soak step %d: %s", done, point)
-            taken.append(point)
+        if done % sample_every == 0 or done in marks:
+            sample()
 
-    was_tracing = tracemalloc.is_tracing()
-    if not was_tracing:
-        tracemalloc.start(1)
     started = time.perf_counter()
-    try:
-        result = run_episode(scenario, policy=policy, seed=seed, progress=progress)
-    finally:
-        if not was_tracing:
-            tracemalloc.stop()
+    sample()
+    result = run_episode(scenario, policy=policy, seed=seed, progress=progress)
     events = result["events"]
     counts = events["event"].value_counts().to_dict() if len(events) else {}
     return SoakReport(
@@ -141,7 +140,9 @@ def soak(
         seed=int(result.manifest["seed"]),
         steps=scenario.steps,
         wall_s=time.perf_counter() - started,
-        checkpoints=taken,
+        samples=samples,
+        checkpoints=marks,
+        cache_budget=cache.budget,
         non_finite=non_finite_cells(result),
         events={str(k): int(v) for k, v in counts.items()},
     )
