@@ -4,9 +4,9 @@
     python tools/soak.py scenarios/soak-20x20.yaml --steps 100 --checkpoints 50 100
 
 Prints the resident memory (now and peak) and the cache of league problems at each
-checkpoint; the leak (memory gained over stretches in which no new problem structure was
-built); the events by kind and any table cell that is NaN/inf. Exit status 1 when a table holds
-a non-finite number or the leak exceeds --max-leak-mb.
+checkpoint; the leak (memory gained beyond the recorded tables over stretches in which no
+problem or solver was built); the events by kind and any table cell that is NaN/inf. Exit
+status 1 when a table holds a non-finite number or the leak exceeds --max-leak-mb.
 """
 
 from __future__ import annotations
@@ -52,18 +52,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(
         f"{'step':>6} {'RSS MB':>8} {'peak RSS MB':>12} {'problems cached':>16} "
-        f"{'cache weight':>13} {'built so far':>13}"
+        f"{'cache weight':>13} {'problems + solvers built':>25}"
     )
     for c in report.at_checkpoints():
         print(
             f"{c.step:>6} {c.rss_mb:>8.1f} {c.peak_rss_mb:>12.1f} {c.cached:>16} "
-            f"{c.cache_weight:>13.3g} {c.builds:>13}"
+            f"{c.cache_weight:>13.3g} {c.builds:>25}"
         )
     leak = report.leak_mb()
     print(f"cache budget: {report.cache_budget:.3g} instructions")
+    print(f"recorded tables: {report.record_bytes_per_step / 1024:.2f} kB per step")
     print(f"RSS growth, first to last checkpoint: {report.growth_mb():+.1f} MB")
     print(
-        f"leak (growth while no structure was built, every {args.sample_every} steps): "
+        f"leak (growth beyond the tables while nothing was built, sampled every "
+        f"{args.sample_every} steps): "
         f"{leak:.2f} MB"
     )
     print("events: " + ", ".join(f"{k} {v}" for k, v in sorted(report.events.items())))

@@ -573,9 +573,18 @@ _NLPS: LruCache[tuple[Structure, float], LeagueNLP] = LruCache(
 )
 
 
+#: solvers created so far in this process (each holds native memory: see :func:`solver_builds`)
+_BUILDS = {"solvers": 0}
+
+
 def nlp_cache() -> LruCache[tuple[Structure, float], LeagueNLP]:
     """The process-wide cache of symbolic problems (its size, builds and evictions)."""
     return _NLPS
+
+
+def solver_builds() -> int:
+    """How many solvers (SQP or IPOPT, per problem) were created so far in this process."""
+    return _BUILDS["solvers"]
 
 
 def shared_nlp(structure: Structure, margin: float = SQP_MARGIN) -> LeagueNLP:
@@ -683,6 +692,7 @@ class LeagueProblem:
                 job.failed, compiled = True, False
         s = self.structure
         solver = self._build(method, functions)
+        _BUILDS["solvers"] += 1
         call = _BufferedCall(solver, s.n_vars, self.n_params, self.n_constraints)
         call.compiled = compiled
         return call

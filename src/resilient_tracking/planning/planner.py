@@ -79,9 +79,7 @@ class SolverLadder:
         self._problems: LruCache[Any, Any] = LruCache(
             self.PROBLEM_BUDGET, weigh=self.weigh, on_evict=self._forget
         )
-        self._warm: OrderedDict[tuple[Any, tuple[int, ...]], dict[str, np.ndarray]] = (
-            OrderedDict()
-        )
+        self._warm: OrderedDict[tuple[Any, tuple[int, ...]], dict[str, np.ndarray]] = OrderedDict()
 
     def build(self, structure: Any) -> Any:
         raise NotImplementedError

@@ -50,7 +50,8 @@ INT, FLOAT, BOOL = np.int64, np.float64, np.bool_
 class _Recorder:
     """Collects rows while the episode runs: the per-step tables as compact columns."""
 
-    def __init__(self, world: World):
+    def __init__(self, world: World, steps: int):
+        n_robots, n_targets = len(world.robot_positions), len(world.target_states)
         self.team = ColumnTable(
             {
                 "step": INT,
@@ -64,7 +65,8 @@ class _Recorder:
                 "n_solves": INT,
                 "n_solver_failures": INT,
                 "solver_iterations": INT,
-            }
+            },
+            steps,
         )
         self.robots = ColumnTable(
             {
@@ -78,7 +80,8 @@ class _Recorder:
                 "comm_ok": BOOL,
                 "league": INT,
                 "mode": object,
-            }
+            },
+            steps * n_robots,
         )
         self.targets = ColumnTable(
             {
@@ -90,9 +93,10 @@ class _Recorder:
                 "est_y": FLOAT,
                 "var_x": FLOAT,
                 "var_y": FLOAT,
-            }
+            },
+            steps * n_targets,
         )
-        self.timing = ColumnTable({"step": INT, "plan_ms": FLOAT})
+        self.timing = ColumnTable({"step": INT, "plan_ms": FLOAT}, steps)
         self.events: list[dict[str, Any]] = []
         self.knowledge: list[dict[str, Any]] = []
         self.zones = [
@@ -235,7 +239,7 @@ def run_episode(
     planner = LeaguePlanner(fault_hook=fault_hook)
     policy_obj = make_policy(policy_name, scenario, config, planner)
     team = Team(policy_obj, initial_estimate(scenario, world, seed))
-    recorder = _Recorder(world)
+    recorder = _Recorder(world, scenario.steps)
     for _ in range(scenario.steps):
         obs = world.observe()
         truth = world.target_states

@@ -61,11 +61,14 @@ class ColumnTable:
 
     The per-step tables (a row per robot and per target every step) would otherwise hold a
     Python dict and a boxed number per cell: about 1 kB per row, the bulk of a long run's
-    memory. Columns double their capacity when full, so appending is amortised O(rows).
+    memory. Give ``capacity`` when the final number of rows is known: the columns are then
+    allocated once (the operating system maps their pages as they are written), so memory grows
+    exactly with the rows. Beyond it, columns double, so appending stays amortised O(rows).
     """
 
-    def __init__(self, dtypes: dict[str, Any]):
-        self._columns = {name: np.empty(16, dtype=dtype) for name, dtype in dtypes.items()}
+    def __init__(self, dtypes: dict[str, Any], capacity: int = 16):
+        size = max(int(capacity), 1)
+        self._columns = {name: np.empty(size, dtype=dtype) for name, dtype in dtypes.items()}
         self._rows = 0
 
     def __len__(self) -> int:

@@ -2,10 +2,12 @@
 
 :func:`soak` runs one episode and every ``sample_every`` steps reads the process's resident set
 size (``/proc/self/statm``) and peak (``getrusage``), and the process-wide cache of league
-problems (:func:`~resilient_tracking.planning.league_problem.nlp_cache`). Memory may grow only
-when a new problem structure is built (a zone learned, a league split), and that is bounded by
-the cache's budget; :meth:`SoakReport.leak_mb` sums the growth over the stretches in which no
-structure was built, which must stay near zero. After the run every table is checked for NaN/inf.
+problems (:func:`~resilient_tracking.planning.league_problem.nlp_cache`). Memory may grow in
+two ways only: the recorded tables (a fixed number of bytes per step, by design), and a new
+problem or solver being built (a zone learned, a league split, a first fallback to IPOPT),
+which the cache's budget bounds. :meth:`SoakReport.leak_mb` sums whatever else the resident
+memory gained over the stretches in which nothing was built; it must stay near zero. After the
+run every table is checked for NaN/inf.
 ``tools/soak.py`` prints the report.
 """
 
@@ -20,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from resilient_tracking.planning.league_problem import nlp_cache
+from resilient_tracking.planning.league_problem import nlp_cache, solver_builds
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import EpisodeResult
@@ -37,7 +39,7 @@ class MemorySample:
     rss_mb: float
     peak_rss_mb: float
     #: league problems in the process-wide cache, their weight (instructions), and how many
-    #: were built so far
+    #: problems and solvers were built so far
     cached: int
     cache_weight: float
     builds: int
@@ -54,6 +56,8 @@ class SoakReport:
     #: the steps whose samples are printed
     checkpoints: tuple[int, ...] = ()
     cache_budget: float = 0.0
+    #: bytes the recorded tables hold per step (their final size over the number of steps)
+    record_bytes_per_step: float = 0.0
     #: tables with a NaN or infinite number, and how many such cells
     non_finite: dict[str, int] = field(default_factory=dict)
     events: dict[str, int] = field(default_factory=dict)
@@ -65,10 +69,18 @@ class SoakReport:
     def at_checkpoints(self) -> list[MemorySample]:
         return [s for s in self.samples if s.step in self.checkpoints]
 
+    def records_mb(self, steps: int) -> float:
+        """Memory of the tables recorded over ``steps`` steps."""
+        return steps * self.record_bytes_per_step / MB
+
     def leak_mb(self) -> float:
-        """Resident memory gained between samples with no new problem structure built."""
+        """Resident memory gained beyond the recorded tables between samples with nothing built."""
         pairs = zip(self.samples, self.samples[1:], strict=False)
-        return sum(max(b.rss_mb - a.rss_mb, 0.0) for a, b in pairs if b.builds == a.builds)
+        return sum(
+            b.rss_mb - a.rss_mb - self.records_mb(b.step - a.step)
+            for a, b in pairs
+            if b.builds == a.builds
+        )
 
     def growth_mb(self) -> float:
         """Resident memory gained from the first to the last checkpoint."""
@@ -87,6 +99,15 @@ def _rss_mb() -> float:
     except (OSError, IndexError, ValueError):
         return float("nan")
     return pages * resource.getpagesize() / MB
+
+
+def record_bytes(result: EpisodeResult) -> int:
+    """Bytes of the recorded tables as the recorder holds them (8 per text cell: a pointer)."""
+    total = 0
+    for table in result.tables.values():
+        for dtype in table.dtypes:
+            total += len(table) * (dtype.itemsize if dtype.kind in "biuf" else 8)
+    return total
 
 
 def non_finite_cells(result: EpisodeResult) -> dict[str, int]:
@@ -119,7 +140,8 @@ def soak(
     done = 0
 
     def sample() -> None:
-        point = MemorySample(done, _rss_mb(), _peak_rss_mb(), len(cache), cache.total, cache.builds)
+        built = cache.builds + solver_builds()
+        point = MemorySample(done, _rss_mb(), _peak_rss_mb(), len(cache), cache.total, built)
         log.debug("soak step %d: %s", done, point)
         samples.append(point)
 
@@ -143,6 +165,7 @@ def soak(
         samples=samples,
         checkpoints=marks,
         cache_budget=cache.budget,
+        record_bytes_per_step=record_bytes(result) / max(scenario.steps, 1),
         non_finite=non_finite_cells(result),
         events={str(k): int(v) for k, v in counts.items()},
     )
