@@ -263,3 +263,23 @@ def test_compiled_code_gives_bit_for_bit_the_same_plans(tmp_path, monkeypatch):
             q.positions = q.positions + problem.split(solution["x"]) * q.dt
         runs.append(np.stack(out))
     np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_a_problem_that_cannot_be_built_gives_the_safe_action():
+    class Broken(LeaguePlanner):
+        def build(self, structure):
+            raise MemoryError("out of memory")
+
+    q = inputs()
+    result = Broken().plan(structure_of(q), (0, 1, 2), q)
+    assert not result.success and result.fallback == "safe"
+    assert result.attempts == (("build", "exception: MemoryError"),)
+    np.testing.assert_array_equal(result.controls, np.zeros((3, 2)))
+
+
+def test_a_malformed_solution_is_a_failed_attempt():
+    planner = LeaguePlanner(fault_hook=lambda rung, sol, stats: ({"x": np.ones(1)}, stats))
+    q = inputs()
+    result = planner.plan(structure_of(q), (0, 1, 2), q)
+    assert result.fallback == "safe"
+    assert [status for _, status in result.attempts] == ["exception: ValueError"] * 2

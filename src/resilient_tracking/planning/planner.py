@@ -114,30 +114,37 @@ class SolverLadder:
         return rungs
 
     def plan(self, structure: Any, members: tuple[int, ...], q: Any) -> PlanResult:
-        problem = self.problem(structure)
         key = (structure, members)
         warm = self._warm.get(key)
         start = time.perf_counter()
         status, iterations = "not solved", 0
         attempts: list[tuple[str, str]] = []
+        try:
+            problem = self.problem(structure)
+        except Exception as err:  # building a problem must not crash an episode either
+            log.warning("building the league problem raised %s: %s", type(err).__name__, err)
+            status = f"exception: {type(err).__name__}"
+            attempts.append(("build", status))
+            return self._safe(structure, members, q, status, iterations, attempts, start)
         for k, (rung, method, use_warm) in enumerate(self.rungs(warm)):
             try:
                 solution, stats = problem.solve(q, warm if use_warm else None, method)
                 if self.fault_hook is not None:
                     solution, stats = self.fault_hook(rung, solution, stats)
+                status = str(stats.get("return_status", "unknown"))
+                iterations += int(stats.get("iter_count", 0))
+                x = np.asarray(solution["x"])
+                controls = problem.split(x)
             except Exception as err:  # a solver must never crash an episode
                 log.warning("league solve (%s) raised %s: %s", rung, type(err).__name__, err)
                 status = f"exception: {type(err).__name__}"
                 attempts.append((rung, status))
                 continue
-            status = str(stats.get("return_status", "unknown"))
-            iterations += int(stats.get("iter_count", 0))
             attempts.append((rung, status))
-            x = np.asarray(solution["x"])
             if stats.get("success", False) and np.all(np.isfinite(x)):
                 self._keep_warm(key, solution)
                 return PlanResult(
-                    controls=np.clip(problem.split(x), q.u_lower, q.u_upper),
+                    controls=np.clip(controls, q.u_lower, q.u_upper),
                     status=status,
                     success=True,
                     iterations=iterations,
@@ -147,7 +154,20 @@ class SolverLadder:
                     attempts=tuple(attempts),
                 )
             log.debug("league %s: %s attempt failed (%s)", members, rung, status)
-        self._warm.pop(key, None)
+        return self._safe(structure, members, q, status, iterations, attempts, start)
+
+    def _safe(
+        self,
+        structure: Any,
+        members: tuple[int, ...],
+        q: Any,
+        status: str,
+        iterations: int,
+        attempts: list[tuple[str, str]],
+        start: float,
+    ) -> PlanResult:
+        """The last rung: hold position (the policy may replace it with a safe action)."""
+        self._warm.pop((structure, members), None)
         log.info("league %s: solver failed (%s); holding position", members, status)
         return PlanResult(
             controls=np.clip(np.zeros((structure.n_robots, 2)), q.u_lower, q.u_upper),
