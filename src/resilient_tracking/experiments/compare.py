@@ -1,34 +1,30 @@
-"""Side-by-side comparison of policies on scenarios over seeds (time-averaged metrics)."""
+"""Side-by-side comparison of policies on scenarios over seeds, without writing run folders.
+
+Each episode is reduced in memory to the row :func:`~resilient_tracking.experiments.summary.
+summarise_run` gives a stored run (time-averaged trace and MSE, attacks, survival, solver
+trouble), plus its scenario's name. ``tools/calibration_table.py`` and the paper-claims test
+use it; ``rtrack reproduce`` stores its runs and summarises them from disk instead.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 from joblib import Parallel, delayed
 
+from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.viz.io import run_data
 
 
-def summarise(scenario: Scenario, policy: str, seed: int) -> dict[str, object]:
-    """One episode reduced to one row: time-averaged trace and MSE, failures, solver trouble."""
+def summarise(scenario: Scenario, policy: str, seed: int) -> dict[str, Any]:
+    """One episode reduced to one row."""
     result = run_episode(scenario, policy=policy, seed=seed)
-    team, events = result["team"], result["events"]
-    attacks = events[events["event"] == "attack"] if len(events) else events
-    return {
-        "scenario": scenario.name,
-        "policy": policy,
-        "seed": seed,
-        "trace": float(team["trace"].mean()),
-        "mse": float(team["mse"].mean()),
-        "final_trace": float(team["trace"].iloc[-1]),
-        "attacks": len(attacks),
-        "robots_attacked": int(attacks["robot"].nunique()) if len(attacks) else 0,
-        "zones_inferred": int((events["event"] == "zone_inferred").sum()) if len(events) else 0,
-        "solver_failures": int(team["n_solver_failures"].sum()),
-    }
+    return {"scenario": scenario.name, **summarise_run(run_data(result, scenario.name))}
 
 
 def compare(

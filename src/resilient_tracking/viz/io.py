@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.sim.records import COLUMNS
+from resilient_tracking.sim.records import COLUMNS, EpisodeResult
 
 logger = logging.getLogger(__name__)
 
@@ -181,6 +181,12 @@ def load_run(run_dir: str | Path) -> RunData:
         ", ".join(f"{k}={len(v)} rows" for k, v in tables.items()),
     )
     return RunData(run_dir=run_dir, manifest=manifest, **tables)
+
+
+def run_data(result: EpisodeResult, name: str = "in-memory") -> RunData:
+    """The :class:`RunData` of an episode that was not written to disk (``run_dir`` is ``name``)."""
+    tables = {table: result.tables[table] for table in REQUIRED_COLUMNS}
+    return RunData(run_dir=Path(name), manifest=dict(result.manifest), **tables)
 
 
 def attack_kind(detail: object) -> str:

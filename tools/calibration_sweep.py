@@ -2,7 +2,7 @@
 
 Usage (from the repository root)::
 
-    python docs/calibration_sweep.py comm-temp,comm-perm --seeds 1-10 \\
+    python tools/calibration_sweep.py comm-temp,comm-perm --seeds 1-10 \\
         --case 'shipped={}' \\
         --case 'compact={"zones.0.sigma": [[0.05, 0], [0, 0.05]], "zones.0.hazard.kappa": 0.628}' \\
         --case 'margin0={"policy.failure_aware.circle_margin": 0.0}'
@@ -20,24 +20,17 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 import yaml
-from calibration_table import seed_range  # sibling script: docs/ is on sys.path when run
+from calibration_table import seed_range  # sibling script: tools/ is on sys.path when run
 from joblib import Parallel, delayed
 
+from resilient_tracking.experiments.catalog import set_path
 from resilient_tracking.experiments.compare import summarise
 from resilient_tracking.scenario import parse_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
-
-
-def set_path(data: Any, path: str, value: Any) -> None:
-    keys = [int(k) if k.isdigit() else k for k in path.split(".")]
-    for key in keys[:-1]:
-        data = data.setdefault(key, {}) if isinstance(data, dict) else data[key]
-    data[keys[-1]] = value
 
 
 def main() -> None:

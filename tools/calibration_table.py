@@ -2,9 +2,9 @@
 
 Usage (from the repository root)::
 
-    python docs/calibration_table.py                  # seeds 1..5, as in docs/calibration.md
-    python docs/calibration_table.py --seeds 1-10     # a wider check
-    python docs/calibration_table.py --scenarios comm-temp,comm-perm
+    python tools/calibration_table.py                  # seeds 1..5, as in docs/calibration.md
+    python tools/calibration_table.py --seeds 1-10     # a wider check
+    python tools/calibration_table.py --scenarios comm-temp,comm-perm
 
 Each cell is the mean ± standard deviation over seeds of the time-averaged metric (the mean of
 ``team.parquet``'s ``trace`` or ``mse`` over the steps of one episode). "FA wins" counts the
