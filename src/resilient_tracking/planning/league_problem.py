@@ -540,6 +540,9 @@ class LeagueNLP:
         self.nlp = {"x": x, "p": p, "f": f, "g": g_vec}
 
 
+#: Options of both solvers: nothing uses ``lam_p`` (∂L/∂p), which costs a reverse sweep over
+#: the whole problem after each solve (≈ 0.4 ms at 20×20).
+COMMON_OPTIONS: dict[str, Any] = {"print_time": False, "error_on_fail": False, "calc_lam_p": False}
 #: IPOPT settings of the robust rungs (warm and cold start).
 IPOPT_OPTIONS: dict[str, Any] = {
     "print_level": 0,
@@ -803,7 +806,7 @@ class LeagueProblem:
         if method == "ipopt":
             keys = {"grad_f": "grad_f", "jac_g": "jac_g", "hess_lag": "hess_exact_triu"}
         else:
-            keys = {"jac_fg": "jac_fg", "hess_lag": "hess_" + self._sqp_hessian}
+            keys = {"fg": "fg", "jac_fg": "jac_fg", "hess_lag": "hess_" + self._sqp_hessian}
         return {role: fn[key] for role, key in keys.items()}
 
     @property
@@ -835,28 +838,39 @@ class LeagueProblem:
         if compiled and job is not None:
             try:
                 functions = job.load()
+                if "fg" in functions:
+                    # the SQP's oracle: sqpmethod sets up (never calls: calc_lam_p is off)
+                    # a gradient function of it, which needs derivatives to exist
+                    functions = {**functions, "fg": job.external("fg", {"enable_fd": True})}
             except RuntimeError as err:  # a broken library: stay on the virtual machine
                 log.warning("loading %s failed: %s", job.library, err)
                 job.failed, compiled = True, False
         nlp = self._nlp(method)
-        solver = self._build(method, functions)
+        solver = self._build(method, functions, compiled)
         call = _BufferedCall(solver, nlp.n_vars, nlp.n_params, nlp.n_constraints)
         call.compiled = compiled
         return call
 
-    def _build(self, method: str, functions: dict[str, ca.Function]) -> ca.Function:
+    def _build(
+        self, method: str, functions: dict[str, ca.Function], compiled: bool = False
+    ) -> ca.Function:
         if method not in (*METHODS, "sqp_slots"):
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
         s = self.structure
         name = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c_{method}"
-        opts: dict[str, Any] = {"print_time": False, "error_on_fail": False}
-        # f and g stay symbolic: CasADi derives its own helpers (never called here) from them
-        nlp = self._nlp(method).nlp
+        opts: dict[str, Any] = dict(COMMON_OPTIONS)
+        # f and g symbolic: CasADi derives its own helpers (never called here) from them
+        nlp: Any = self._nlp(method).nlp
         if method == "ipopt":
             opts.update(functions, ipopt={**IPOPT_OPTIONS, **self.options.get("ipopt", {})})
             return ca.nlpsol(name, "ipopt", nlp, opts)
         opts.update(SQP_OPTIONS)
         opts.update(self.options.get("sqp", {}))
+        # f and g (line search, convergence test) on compiled code too when there is some
+        functions = dict(functions)
+        fg = functions.pop("fg")
+        if compiled:
+            nlp = fg
         qpsol = str(self.options.get("qpsol", "qpoases"))
         defaults = QPOASES_OPTIONS if qpsol == "qpoases" else {}
         opts.update(
