@@ -54,21 +54,28 @@ def evaluation_ms(fn: ca.Function, args: list[np.ndarray], repeat: int) -> float
 def evaluations(
     problem: LeagueProblem, q: Any, solution: dict[str, np.ndarray]
 ) -> dict[str, float]:
-    """One evaluation of what an SQP iteration needs (f, g, ∇f, ∂g/∂x, ∇²L), on CasADi's
-    virtual machine and, when the solver uses it, compiled (f and g always run on the VM)."""
-    fn = problem.nlp.functions
+    """One evaluation of what an SQP iteration needs (f, g, ∇f, ∂g/∂x, ∇²L) of the problem
+    the SQP solved at ``q`` (the reduced one when there was one), on CasADi's virtual machine
+    and, when the solver uses it, compiled."""
+    reduction = problem.reduction(q)
+    method = "sqp" if reduction is None else "sqp_slots"
+    fn = problem._nlp(method).functions
     p = problem.pack_params(q)
     x, lam_g = solution["x"], solution["lam_g"]
+    if reduction is not None:
+        p = np.concatenate([p, reduction.selection])
+        x, lam_g = reduction.reduce(x), reduction.reduce_rows(lam_g)
     repeat = 2000 if problem.structure.n_vars < 50 else 200
     args = {"fg": [x, p], "jac_fg": [x, p], "hess_clip": [x, p, np.ones(1), lam_g]}
     out = {f"vm_{k}": evaluation_ms(fn[k], a, repeat) for k, a in args.items()}
     out["vm_total"] = sum(out.values())
-    job = problem._job("sqp")
-    if problem.compiled("sqp") and job is not None:
+    job = problem._job(method)
+    if problem.compiled(method) and job is not None:
         compiled = job.load()
+        out["c_fg"] = evaluation_ms(compiled["fg"], args["fg"], repeat)
         out["c_jac_fg"] = evaluation_ms(compiled["jac_fg"], args["jac_fg"], repeat)
         out["c_hess_clip"] = evaluation_ms(compiled["hess_lag"], args["hess_clip"], repeat)
-        out["c_total"] = out["vm_fg"] + out["c_jac_fg"] + out["c_hess_clip"]
+        out["c_total"] = out["c_fg"] + out["c_jac_fg"] + out["c_hess_clip"]
     out["total"] = out.get("c_total", out["vm_total"])
     return out
 
@@ -85,6 +92,8 @@ def run_case(case: LeagueCase, steps: int, naive_every: int, seed: int = 0) -> d
         problem = planner.problem(s)
         for method in methods:
             problem.solver(method)
+        if name == "ladder" and problem.slots:  # the SQP's reduced problem
+            problem.solver("sqp_slots")
         build_s[name] = time.perf_counter() - t
         t = time.perf_counter()  # compiled code: from the cache, or wait for gcc once
         problem.wait_for_compiler(methods)
@@ -100,7 +109,9 @@ def run_case(case: LeagueCase, steps: int, naive_every: int, seed: int = 0) -> d
     # others' caches, as interleaving a naive rebuild between two fast solves would).
     recorded, active = [], []
     last_q, last_solution = None, None
+    reduced = 0  # steps the SQP could solve the reduced problem
     for q in loop.run(steps):
+        reduced += planners["ladder"].problem(s).reduction(q) is not None
         t, c = time.perf_counter(), time.process_time()
         r = planners["ladder"].plan(s, members, q)
         times["ladder"].append((time.perf_counter() - t) * 1e3)
@@ -137,9 +148,17 @@ def run_case(case: LeagueCase, steps: int, naive_every: int, seed: int = 0) -> d
         du_naive.append(float(np.abs(u - controls["ipopt"][k]).max()))
     pairs = zip(controls["ladder"], controls["ipopt"], strict=True)
     du_ipopt = [float(np.abs(a - b).max()) for a, b in pairs]
+    ladder_problem = planners["ladder"].problem(s)
+    sqp_nlp = ladder_problem.slot_nlp if ladder_problem.slots else ladder_problem.nlp
     out: dict[str, Any] = {
         "case": case.label,
         "structure": vars(s) | {"n_vars": s.n_vars, "n_constraints": s.n_constraints},
+        "sqp_problem": {
+            "slots": vars(ladder_problem.slots) if ladder_problem.slots else None,
+            "n_vars": sqp_nlp.n_vars,
+            "n_constraints": sqp_nlp.n_constraints,
+            "reduced_steps": reduced,
+        },
         "steps": steps,
         "naive_every": naive_every,
         "build_s": build_s,
@@ -207,10 +226,14 @@ def report(results: list[dict[str, Any]]) -> str:
     for r in results:
         lad, ip, nv = r["ladder"]["ms"]["median"], r["ipopt"]["ms"]["median"], r["naive"]["ms"]
         ev = r.get("evaluation_ms", {})
+        sqp = r.get("sqp_problem") or {}
         rows.append(
             [
                 r["case"],
                 f"{r['structure']['n_vars']} / {r['structure']['n_constraints']}",
+                f"{sqp['n_vars']} / {sqp['n_constraints']} ({sqp['reduced_steps']} steps)"
+                if sqp.get("slots")
+                else "–",
                 nv["median"] / lad,
                 ip / lad,
                 ev.get("vm_total", float("nan")) * 1e3,
@@ -229,6 +252,7 @@ def report(results: list[dict[str, Any]]) -> str:
             [
                 "league",
                 "vars / constraints",
+                "SQP's reduced problem",
                 "speed-up vs naive (median)",
                 "speed-up vs IPOPT only",
                 "one eval f,g,∇f,J,∇²L VM (µs)",

@@ -5,7 +5,6 @@ from __future__ import annotations
 import pytest
 
 from resilient_tracking.planning.cache import LruCache
-from resilient_tracking.planning.league_problem import Structure
 from resilient_tracking.planning.planner import LeaguePlanner
 from test_planner import inputs, structure_of
 
@@ -73,9 +72,13 @@ def test_a_planner_keeps_a_bounded_number_of_warm_starts():
     assert [members for _, members in planner._warm] == [(2,), (3,), (4,)]
 
 
-def test_the_league_planner_weighs_problems_by_their_symbolic_size():
+def test_the_league_planner_weighs_problems_by_the_symbolic_code_they_built():
     planner = LeaguePlanner()
-    small = planner.problem(Structure(1, 1))
-    large = planner.problem(Structure(3, 3, 1, 1))
-    assert 0 < planner.weigh(small) < planner.weigh(large)
-    assert planner._problems.total == planner.weigh(small) + planner.weigh(large)
+    small, large = inputs(n=1, big_n=1, sensing_zones=0, comm_zones=0), inputs()
+    assert planner.weigh(planner.problem(structure_of(small))) == 0  # nothing built yet
+    planner.plan(structure_of(small), (0,), small)
+    planner.plan(structure_of(large), (0, 1, 2), large)
+    w_small = planner.weigh(planner.problem(structure_of(small)))
+    w_large = planner.weigh(planner.problem(structure_of(large)))
+    assert 0 < w_small < w_large
+    assert planner._problems.total == w_small + w_large

@@ -25,6 +25,7 @@ class LruCache(Generic[K, V]):
 
     After each insertion the least recently used entries are evicted until the summed
     ``weigh(value)`` is at most ``budget``; the newest entry is always kept, however heavy.
+    Weights are read afresh at each insertion (a value may build its parts lazily and grow).
     ``on_evict(key, value)`` is called for each evicted entry.
     """
 
@@ -39,26 +40,29 @@ class LruCache(Generic[K, V]):
         self.budget = budget
         self.weigh = weigh
         self.on_evict = on_evict
-        self._entries: OrderedDict[K, tuple[V, float]] = OrderedDict()
-        self.total = 0.0
+        self._entries: OrderedDict[K, V] = OrderedDict()
         #: how many entries were built and evicted so far
         self.builds = 0
         self.evictions = 0
 
+    @property
+    def total(self) -> float:
+        """The summed weight of the entries now."""
+        return sum(float(self.weigh(value)) for value in self._entries.values())
+
     def get(self, key: K, build: Callable[[], V]) -> V:
         if key in self._entries:
             self._entries.move_to_end(key)
-            return self._entries[key][0]
-        value = build()
-        weight = float(self.weigh(value))
-        self._entries[key] = (value, weight)
-        self.total += weight
+            return self._entries[key]
+        value = self._entries[key] = build()
         self.builds += 1
-        while self.total > self.budget and len(self._entries) > 1:
-            old_key, (old_value, old_weight) = self._entries.popitem(last=False)
-            self.total -= old_weight
+        weights = {k: float(self.weigh(v)) for k, v in self._entries.items()}
+        total = sum(weights.values())
+        while total > self.budget and len(self._entries) > 1:
+            old_key, old_value = self._entries.popitem(last=False)
+            total -= weights[old_key]
             self.evictions += 1
-            log.debug("evicting %s (weight %g) from the cache", old_key, old_weight)
+            log.debug("evicting %s (weight %g) from the cache", old_key, weights[old_key])
             if self.on_evict is not None:
                 self.on_evict(old_key, old_value)
         return value
@@ -73,8 +77,7 @@ class LruCache(Generic[K, V]):
         return iter(list(self._entries))
 
     def values(self) -> list[V]:
-        return [value for value, _ in self._entries.values()]
+        return list(self._entries.values())
 
     def clear(self) -> None:
         self._entries.clear()
-        self.total = 0.0

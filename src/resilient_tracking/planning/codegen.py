@@ -99,6 +99,10 @@ class CompiledFunctions:
             }
         return self._loaded
 
+    def external(self, key: str, options: dict) -> ca.Function:
+        """The compiled function ``key`` loaded anew with CasADi ``options``."""
+        return ca.external(self.names[key], str(self.library), options)
+
 
 def compile_functions(functions: dict[str, ca.Function], label: str) -> CompiledFunctions | None:
     """Start compiling ``functions`` (or find them in the cache); None if codegen is off."""

@@ -31,6 +31,15 @@ convex in ``A``); the 2×2 diagonal blocks carry the rest, which is indefinite n
 (the bearing information peaks on a ring of radius ``PLAN_EPS`` around it), together with the
 keep-out curvature. The SQP therefore uses the exact Hessian with each robot's 2×2 diagonal
 block's eigenvalues clipped from below (closed form), IPOPT the exact Hessian.
+
+**The SQP's reduced problem.** Within one step a robot moves at most ``u_max dt``, so most
+rows can never bind: zones far from a robot, and for the jamming rows every teammate but the
+farthest few. qpOASES pays for every slack at its bound and every row in each QP (it rebuilds
+its factorisation from the previous working set for every new Hessian and Jacobian), so for
+large leagues the SQP solves a problem with a fixed number of *slots* per robot
+(:class:`Slots`) whose zone and teammate are parameters, filled each step with what can
+bind; what is left out provably holds (:meth:`LeagueProblem.reduction`). Same solutions,
+same structure every step.
 """
 
 from __future__ import annotations
@@ -41,7 +50,7 @@ import io
 import logging
 import os
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from typing import Any
 
 import casadi as ca
@@ -84,6 +93,17 @@ class Structure:
     def n_constraints(self) -> int:
         n = self.n_robots
         return n * self.n_sensing_zones + n * self.n_comm_zones * (n - 1)
+
+
+@dataclass(frozen=True)
+class Slots:
+    """Sizes of the SQP's reduced problem (:meth:`LeagueProblem.reduction`): per robot,
+    ``sensing`` sensing-zone rows, ``comm`` comm-zone slacks with ``mates`` teammate rows
+    each; which zone and teammate fill each slot is a parameter."""
+
+    sensing: int
+    comm: int
+    mates: int
 
 
 @dataclass
@@ -256,14 +276,17 @@ class LeagueNLP:
     curvature (see the module docstring).
     """
 
-    def __init__(self, structure: Structure, margin: float = 1e-2):
+    def __init__(self, structure: Structure, margin: float = 1e-2, slots: Slots | None = None):
         self.structure = s = structure
         self.margin = margin
+        self.slots = slots
         n, big_n, nl, nk = s.n_robots, s.n_targets, s.n_sensing_zones, s.n_comm_zones
+        # slack variables per robot: one per zone, or one per slot of the reduced problem
+        n_nu, n_xi = (slots.sensing, slots.comm) if slots else (nl, nk)
         sx = ca.SX.sym
         u = sx("u", 2, n)
-        nu = sx("nu", nl, n)
-        xi = sx("xi", nk, n)
+        nu = sx("nu", n_nu, n)
+        xi = sx("xi", n_xi, n)
         x0 = sx("x", 2, n)
         sense = sx("s", n)
         targets = sx("targets", 2, big_n)
@@ -274,9 +297,17 @@ class LeagueNLP:
         szones = sx("szones", SENSING_COLUMNS, nl)
         czones = sx("czones", COMM_COLUMNS, nk)
         self.x = x = ca.veccat(u, nu, xi)
-        self.p = p = ca.veccat(x0, sense, targets, prior, w, sensor, dt, szones, czones)
+        parameters = [x0, sense, targets, prior, w, sensor, dt, szones, czones]
+        if slots:
+            # one-hot (or, for an unused slot, zero) columns: slot s of robot i is column
+            # i·S + s; teammates are numbered without robot i
+            ssel = sx("ssel", nl, n * slots.sensing)
+            csel = sx("csel", nk, n * slots.comm)
+            msel = sx("msel", n - 1, n * slots.mates)
+            parameters += [ssel, csel, msel]
+        self.p = p = ca.veccat(*parameters)
         self.n_params = int(p.shape[0])
-        nx = s.n_vars
+        self.n_vars = nx = int(x.shape[0])
         pieces = _piece_functions()
         xp = x0 + u * dt
         xps = [xp[:, i] for i in range(n)]
@@ -285,10 +316,10 @@ class LeagueNLP:
             return 2 * i
 
         def inu(i: int, zl: int) -> int:
-            return 2 * n + i * nl + zl
+            return 2 * n + i * n_nu + zl
 
         def ixi(i: int, zk: int) -> int:
-            return 2 * n + n * nl + i * nk + zk
+            return 2 * n + n * n_nu + i * n_xi + zk
 
         # ---- tracking term: f, ∇f and the two parts of its Hessian (w.r.t. x⁺)
         track = ca.SX(0)
@@ -311,18 +342,30 @@ class LeagueNLP:
                 grad_xp[i] = grad_xp[i] + ca.mtimes(jacs[i].T, g_j)
                 own[i] = own[i] + sense[i] * _sym2(ca.mtimes(parts[i][2].T, g_j))
         f = w[0] * track + w[1] * ca.sumsqr(u)
-        if nl:
-            f += w[2] * ca.sum1(ca.sum2(nu))
-        if nk:
-            f += w[3] * ca.sum1(ca.sum2(xi))
         grad = [ca.SX(0)] * nx
         for i in range(n):
             gi = w[0] * dt * grad_xp[i] + 2 * w[1] * u[:, i]
             grad[iu(i)], grad[iu(i) + 1] = gi[0], gi[1]
-            for zl in range(nl):
-                grad[inu(i, zl)] = w[2]
-            for zk in range(nk):
-                grad[ixi(i, zk)] = w[3]
+        if slots:  # a slot's slack costs only if the slot is in use (its column sums to 1)
+            nu_cost = [ca.sum1(ssel[:, c]) for c in range(n * n_nu)]
+            xi_cost = [ca.sum1(csel[:, c]) for c in range(n * n_xi)]
+            f += w[2] * ca.dot(ca.vertcat(*nu_cost), ca.vec(nu)) if n_nu else 0
+            f += w[3] * ca.dot(ca.vertcat(*xi_cost), ca.vec(xi)) if n_xi else 0
+            for i in range(n):
+                for zl in range(n_nu):
+                    grad[inu(i, zl)] = w[2] * nu_cost[i * n_nu + zl]
+                for zk in range(n_xi):
+                    grad[ixi(i, zk)] = w[3] * xi_cost[i * n_xi + zk]
+        else:
+            if nl:
+                f += w[2] * ca.sum1(ca.sum2(nu))
+            if nk:
+                f += w[3] * ca.sum1(ca.sum2(xi))
+            for i in range(n):
+                for zl in range(nl):
+                    grad[inu(i, zl)] = w[2]
+                for zk in range(nk):
+                    grad[ixi(i, zk)] = w[3]
 
         # ---- constraints, their Jacobian and curvature pieces (w.r.t. x⁺)
         g: list[Any] = []
@@ -330,39 +373,70 @@ class LeagueNLP:
         jcols: list[int] = []
         jvals: list[Any] = []
         row_own: list[tuple[int, int, Any]] = []  # (row, robot, 2×2 curvature)
-        row_pair: list[tuple[int, int, int, Any]] = []  # (row, i, q, δ2 · ∇²‖x_i − x_q‖)
-        pairs: dict[tuple[int, int], Any] = {}
-        if nk:
+        #: (row, i, [(q, weight)], δ2 · ∇²‖x_i − x_p‖) with x_p = Σ_q weight x_q (one-hot)
+        row_pair: list[tuple[int, int, list[tuple[int, Any]], Any]] = []
+
+        def sensing_row(i: int, z: Any, slack: int) -> None:
+            h, dh, ddh = pieces["keep_out"](xps[i], z[0:5], z[5], z[6])
+            r = len(g)
+            g.append(h + x[slack])
+            jrows.extend([r, r, r])
+            jcols.extend([iu(i), iu(i) + 1, slack])
+            jvals.extend([dt * dh[0], dt * dh[1], ca.SX(1)])
+            row_own.append((r, i, ddh))
+
+        if not slots:
+            pairs: dict[tuple[int, int], Any] = {}
+            if nk:
+                for i in range(n):
+                    for q in range(i + 1, n):
+                        pairs[i, q] = pieces["pair"](xps[i], xps[q])
             for i in range(n):
-                for q in range(i + 1, n):
-                    pairs[i, q] = pieces["pair"](xps[i], xps[q])
-        for i in range(n):
-            for zl in range(nl):
-                z = szones[:, zl]
-                h, dh, ddh = pieces["keep_out"](xps[i], z[0:5], z[5], z[6])
-                r = len(g)
-                g.append(h + nu[zl, i])
-                jrows += [r, r, r]
-                jcols += [iu(i), iu(i) + 1, inu(i, zl)]
-                jvals += [dt * dh[0], dt * dh[1], ca.SX(1)]
-                row_own.append((r, i, ddh))
-            for zk in range(nk):
-                z = czones[:, zk]
-                h, dh, ddh = pieces["keep_out"](xps[i], z[0:5], z[7], z[6])
-                for q in range(n):
-                    if q == i:
-                        continue
-                    value, grad_pair, hess_pair = pairs[min(i, q), max(i, q)]
-                    # ∂‖x_i − x_q‖/∂x_i = grad_pair if i < q, −grad_pair otherwise
-                    gp = grad_pair if i < q else -grad_pair
-                    r = len(g)
-                    g.append(h - z[5] * value + xi[zk, i])
-                    di, dq = dh - z[5] * gp, z[5] * gp
-                    jrows += [r, r, r, r, r]
-                    jcols += [iu(i), iu(i) + 1, iu(q), iu(q) + 1, ixi(i, zk)]
-                    jvals += [dt * di[0], dt * di[1], dt * dq[0], dt * dq[1], ca.SX(1)]
-                    row_own.append((r, i, ddh))
-                    row_pair.append((r, i, q, z[5] * hess_pair))
+                for zl in range(nl):
+                    sensing_row(i, szones[:, zl], inu(i, zl))
+                for zk in range(nk):
+                    z = czones[:, zk]
+                    h, dh, ddh = pieces["keep_out"](xps[i], z[0:5], z[7], z[6])
+                    for q in range(n):
+                        if q == i:
+                            continue
+                        value, grad_pair, hess_pair = pairs[min(i, q), max(i, q)]
+                        # ∂‖x_i − x_q‖/∂x_i = grad_pair if i < q, −grad_pair otherwise
+                        gp = grad_pair if i < q else -grad_pair
+                        r = len(g)
+                        g.append(h - z[5] * value + xi[zk, i])
+                        di, dq = dh - z[5] * gp, z[5] * gp
+                        jrows += [r, r, r, r, r]
+                        jcols += [iu(i), iu(i) + 1, iu(q), iu(q) + 1, ixi(i, zk)]
+                        jvals += [dt * di[0], dt * di[1], dt * dq[0], dt * dq[1], ca.SX(1)]
+                        row_own.append((r, i, ddh))
+                        row_pair.append((r, i, [(q, ca.SX(1))], z[5] * hess_pair))
+        else:
+            # the reduced problem: zones and teammates picked by the one-hot parameters
+            for i in range(n):
+                for zl in range(n_nu):
+                    sensing_row(i, ca.mtimes(szones, ssel[:, i * n_nu + zl]), inu(i, zl))
+                mate_pairs = []
+                for k in range(slots.mates):
+                    weights = msel[:, i * slots.mates + k]
+                    mates = [(q, weights[q - (q > i)]) for q in range(n) if q != i]
+                    partner = ca.mtimes(ca.horzcat(*[xps[q] for q, _ in mates]), weights)
+                    mate_pairs.append((mates, pieces["pair"](xps[i], partner)))
+                for zk in range(n_xi):
+                    z = ca.mtimes(czones, csel[:, i * n_xi + zk])
+                    h, dh, ddh = pieces["keep_out"](xps[i], z[0:5], z[7], z[6])
+                    for mates, (value, gp, hess_pair) in mate_pairs:
+                        r = len(g)
+                        g.append(h - z[5] * value + xi[zk, i])
+                        di, dq = dh - z[5] * gp, z[5] * gp
+                        jrows.extend([r] * (2 * n + 1))
+                        jcols.extend([iu(i), iu(i) + 1, ixi(i, zk)])
+                        jvals.extend([dt * di[0], dt * di[1], ca.SX(1)])
+                        for q, wq in mates:
+                            jcols.extend([iu(q), iu(q) + 1])
+                            jvals.extend([wq * dt * dq[0], wq * dt * dq[1]])
+                        row_own.append((r, i, ddh))
+                        row_pair.append((r, i, mates, z[5] * hess_pair))
         ng = len(g)
         self.n_constraints = ng
         g_vec = ca.vertcat(*g) if g else ca.SX(0, 1)
@@ -374,12 +448,18 @@ class LeagueNLP:
         diag_rest = [lam_f * w[0] * own[i] for i in range(n)]
         for r, i, curv in row_own:
             diag_rest[i] = diag_rest[i] + lam_g[r] * curv
-        # −δ2 ∇²‖x_i − x_q‖ on [x_i, x_q] is −curv ⊗ [[1, −1], [−1, 1]]; keyed by q ≥ i
+        # −δ2 ∇²‖x_i − x_q‖ on [x_i, x_q] is −curv ⊗ [[1, −1], [−1, 1]]; keyed by q ≥ i. With
+        # x_p = Σ_q w_q x_q and one-hot w (Σ w = 1, w_q w_q' = 0 for q ≠ q', w_q² = w_q), the
+        # blocks are (i, i): −curv, (q, q): −w_q curv, (i, q): +w_q curv.
         pair_exact: dict[tuple[int, int], Any] = {}
-        for r, i, q, curv in row_pair:
-            lo, hi = min(i, q), max(i, q)
-            for key, sign in (((lo, lo), -1), ((hi, hi), -1), ((lo, hi), 1)):
-                pair_exact[key] = pair_exact.get(key, 0) + sign * lam_g[r] * curv
+        for r, i, mates, curv in row_pair:
+            term = lam_g[r] * curv
+            pair_exact[i, i] = pair_exact.get((i, i), 0) - term
+            for q, wq in mates:
+                weighted = term if len(mates) == 1 else wq * term
+                key = (min(i, q), max(i, q))
+                pair_exact[q, q] = pair_exact.get((q, q), 0) - weighted
+                pair_exact[key] = pair_exact.get(key, 0) + weighted
 
         def exact_blocks() -> dict[tuple[int, int], Any]:
             """The exact Hessian's 2×2 blocks ``(i, q)``, ``q ≥ i``, of the velocities."""
@@ -465,6 +545,9 @@ class LeagueNLP:
         self.jobs: dict[tuple[str, str], codegen.CompiledFunctions | None] = {}
 
 
+#: Options of both solvers: nothing uses ``lam_p`` (∂L/∂p), which costs a reverse sweep over
+#: the whole problem after each solve (≈ 0.4 ms at 20×20).
+COMMON_OPTIONS: dict[str, Any] = {"print_time": False, "error_on_fail": False, "calc_lam_p": False}
 #: IPOPT settings of the robust rungs (warm and cold start).
 IPOPT_OPTIONS: dict[str, Any] = {
     "print_level": 0,
@@ -493,6 +576,25 @@ SQP_OPTIONS: dict[str, Any] = {
 QPOASES_OPTIONS: dict[str, Any] = {"printLevel": "none", "error_on_fail": False}
 #: Smallest eigenvalue kept in each robot's 2×2 diagonal Hessian block by the SQP.
 SQP_MARGIN = 1e-2
+#: Per robot, sensing zones, comm zones and teammates of the SQP's reduced problem (see
+#: :meth:`LeagueProblem.reduction`).
+SLOTS = Slots(sensing=2, comm=1, mates=6)
+#: The SQP reduces only problems with at least this many rows: below it qpOASES is cheap
+#: anyway (a 5×5 league with 2 + 1 zones has 30), and the paper-sized leagues keep the exact
+#: solver path their published numbers were made with.
+REDUCE_FROM_ROWS = 100
+
+
+def reduced_slots(structure: Structure, slots: Slots | None = SLOTS) -> Slots | None:
+    """``slots`` capped at the structure's sizes; None when that reduces nothing."""
+    if slots is None:
+        return None
+    n, nl, nk = structure.n_robots, structure.n_sensing_zones, structure.n_comm_zones
+    comm = min(slots.comm, nk)
+    capped = Slots(min(slots.sensing, nl), comm, min(slots.mates, n - 1) if comm else 0)
+    if capped.sensing == nl and capped.comm == nk and (not nk or capped.mates == n - 1):
+        return None
+    return capped
 
 
 class _BufferedCall:
@@ -509,10 +611,12 @@ class _BufferedCall:
 
     def _setup(self, solver: ca.Function, n_x: int, n_p: int, n_g: int) -> None:
         self.solver = solver
-        sizes = [n_x, n_p, n_x, n_x, n_x, n_g]
+        sizes = [n_x, n_p, n_x, n_x, n_x, n_g, n_g]
         z = ca.MX.sym("z", sum(sizes))
-        x0, p, lbx, ubx, lam_x0, lam_g0 = ca.vertsplit(z, np.cumsum([0, *sizes]).tolist())
-        out = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lam_x0=lam_x0, lam_g0=lam_g0, lbg=0, ubg=ca.inf)
+        x0, p, lbx, ubx, lam_x0, lam_g0, lbg = ca.vertsplit(z, np.cumsum([0, *sizes]).tolist())
+        out = solver(
+            x0=x0, p=p, lbx=lbx, ubx=ubx, lam_x0=lam_x0, lam_g0=lam_g0, lbg=lbg, ubg=ca.inf
+        )
         flat = ca.vertcat(out["x"], out["lam_x"], out["lam_g"], out["f"])
         self.function = ca.Function(f"{solver.name()}_flat", [z], [flat])
         self.offsets = np.cumsum([0, *sizes])
@@ -568,7 +672,7 @@ class _BufferedCall:
 #: next, so a solver's results depend on its history, which must be the episode's own. The
 #: least recently used problems beyond ``NLP_BUDGET`` instructions (≈ 160 MB) are forgotten.
 NLP_BUDGET = 4_000_000
-_NLPS: LruCache[tuple[Structure, float], LeagueNLP] = LruCache(
+_NLPS: LruCache[tuple[Structure, float, Slots | None], LeagueNLP] = LruCache(
     NLP_BUDGET, weigh=lambda nlp: nlp.n_instructions
 )
 
@@ -577,7 +681,7 @@ _NLPS: LruCache[tuple[Structure, float], LeagueNLP] = LruCache(
 _BUILDS = {"solvers": 0}
 
 
-def nlp_cache() -> LruCache[tuple[Structure, float], LeagueNLP]:
+def nlp_cache() -> LruCache[tuple[Structure, float, Slots | None], LeagueNLP]:
     """The process-wide cache of symbolic problems (its size, builds and evictions)."""
     return _NLPS
 
@@ -587,14 +691,16 @@ def solver_builds() -> int:
     return _BUILDS["solvers"]
 
 
-def shared_nlp(structure: Structure, margin: float = SQP_MARGIN) -> LeagueNLP:
+def shared_nlp(
+    structure: Structure, margin: float = SQP_MARGIN, slots: Slots | None = None
+) -> LeagueNLP:
     """The process-wide :class:`LeagueNLP` of ``structure`` (built on first use)."""
 
     def build() -> LeagueNLP:
-        log.debug("building league problem %s", structure)
-        return LeagueNLP(structure, margin)
+        log.debug("building league problem %s (slots %s)", structure, slots)
+        return LeagueNLP(structure, margin, slots)
 
-    return _NLPS.get((structure, margin), build)
+    return _NLPS.get((structure, margin, slots), build)
 
 
 def wait_for_compilers() -> None:
@@ -605,6 +711,51 @@ def wait_for_compilers() -> None:
                 job.wait()
 
 
+@dataclass
+class Reduction:
+    """One step's reduced problem (:meth:`LeagueProblem.reduction`)."""
+
+    #: the selection parameters (ssel, csel, msel), flattened column by column
+    selection: np.ndarray
+    #: each reduced row's row in the full problem, and whether the row is in use
+    rows: np.ndarray
+    active: np.ndarray
+    #: each reduced slack's variable in the full problem (−1: an unused slot)
+    variables: np.ndarray
+    #: velocities first, the same in both problems
+    n_u: int
+    #: rows of the full problem
+    n_constraints: int
+    #: the full problem's bound multipliers of the slacks the reduced problem drops
+    dropped_lam_x: np.ndarray
+
+    def reduce(self, full: np.ndarray) -> np.ndarray:
+        """A full problem's ``x`` or ``lam_x`` for the reduced problem."""
+        used = self.variables >= 0
+        slack = np.where(used, full[np.maximum(self.variables, 0)], 0.0)
+        return np.concatenate([full[: self.n_u], slack])
+
+    def reduce_rows(self, full: np.ndarray) -> np.ndarray:
+        """A full problem's ``lam_g`` for the reduced problem."""
+        return np.where(self.active, full[self.rows], 0.0)
+
+    def expand(self, reduced: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The reduced problem's solution as the full problem's: dropped slacks are 0 at their
+        bound, whose multiplier is then their cost (``∂L/∂ν = w + lam_x = 0``); dropped rows'
+        multipliers are 0."""
+        used = self.variables >= 0
+        solution = {"f": reduced["f"]}
+        for key, full in (("x", np.zeros(len(self.dropped_lam_x))), ("lam_x", None)):
+            full = self.dropped_lam_x.copy() if full is None else full
+            full[: self.n_u] = reduced[key][: self.n_u]
+            full[self.variables[used]] = reduced[key][self.n_u :][used]
+            solution[key] = full
+        lam_g = np.zeros(self.n_constraints)
+        lam_g[self.rows[self.active]] = reduced["lam_g"][self.active]
+        solution["lam_g"] = lam_g
+        return solution
+
+
 class LeagueProblem:
     """A league NLP for one :class:`Structure`; solve with :meth:`solve`.
 
@@ -613,8 +764,16 @@ class LeagueProblem:
     Solvers are created on first use, on compiled code when its library is in the cache
     (:mod:`~resilient_tracking.planning.codegen`; compiling starts in the background on first
     use otherwise). ``options`` may hold ``"ipopt"``, ``"sqp"`` and ``"qpoases"`` option dicts
-    (merged over the defaults), ``"sqp_hessian"`` (a key of :attr:`LeagueNLP.functions` without
+    (merged over the defaults), ``"qpsol"`` (the SQP's QP solver plugin, default ``qpoases``;
+    its options under its own name), ``"slots"`` (the :class:`Slots` of the SQP's reduced
+    problem; default ``SLOTS`` for problems of ``REDUCE_FROM_ROWS`` rows or more, else None:
+    never reduce), ``"sqp_hessian"`` (a key of :attr:`LeagueNLP.functions` without
     ``hess_``), ``"margin"`` and ``"codegen"`` (False: never use compiled code).
+
+    The ``"sqp"`` method solves the reduced problem of :meth:`reduction` (only the zones and
+    teammates that can bind this step) when there is one, else the full problem; its solution
+    is returned in the full problem's layout either way, so warm starts pass between the two
+    and the IPOPT rungs.
     """
 
     def __init__(self, structure: Structure, solver: str = "ipopt", options: dict | None = None):
@@ -624,10 +783,12 @@ class LeagueProblem:
         self.default_method = solver
         self.options = options or {}
         self.margin = float(self.options.get("margin", SQP_MARGIN))
-        self.nlp = shared_nlp(structure, self.margin)
-        self.n_constraints = self.nlp.n_constraints
-        self.n_params = self.nlp.n_params
+        self.n_constraints = structure.n_constraints
+        #: sizes of the SQP's reduced problem; None: the SQP always solves the full problem
+        default = SLOTS if structure.n_constraints >= REDUCE_FROM_ROWS else None
+        self.slots = reduced_slots(structure, self.options.get("slots", default))
         self._calls: dict[str, _BufferedCall] = {}
+        self._nlps: dict[Slots | None, LeagueNLP] = {}
         self._lbg = np.zeros(self.n_constraints)
         self._ubg = np.full(self.n_constraints, np.inf)
 
@@ -646,17 +807,47 @@ class LeagueProblem:
         already in the cache): switching mid-episode would restart the solver's state at a
         moment set by the compiler's speed, which would break bit-for-bit reproducibility.
         """
+        if "sqp" in methods and self.slots:
+            methods = (*methods, "sqp_slots")
         for method in methods:
             job = self._job(method)
             if job is not None and job.wait() and not self._call(method).compiled:
                 self._calls[method] = self._new_call(method, job)
 
+    def _shared(self, slots: Slots | None) -> LeagueNLP:
+        # held here once fetched: the shared cache may forget it while this problem lives
+        if slots not in self._nlps:
+            self._nlps[slots] = shared_nlp(self.structure, self.margin, slots)
+        return self._nlps[slots]
+
+    @property
+    def nlp(self) -> LeagueNLP:
+        """The full problem (built on first use: an SQP that always reduces never needs it)."""
+        return self._shared(None)
+
+    @property
+    def n_params(self) -> int:
+        return self.nlp.n_params
+
+    @property
+    def slot_nlp(self) -> LeagueNLP:
+        """The SQP's reduced problem: each robot's comm rows for ``slots`` teammates only."""
+        return self._shared(self.slots)
+
+    @property
+    def n_instructions(self) -> int:
+        """Size of the symbolic problems built for this problem so far (its cache weight)."""
+        return sum(nlp.n_instructions for nlp in self._nlps.values())
+
+    def _nlp(self, method: str) -> LeagueNLP:
+        return self.slot_nlp if method == "sqp_slots" else self.nlp
+
     def _functions(self, method: str) -> dict[str, ca.Function]:
-        fn = self.nlp.functions
+        fn = self._nlp(method).functions
         if method == "ipopt":
             keys = {"grad_f": "grad_f", "jac_g": "jac_g", "hess_lag": "hess_exact_triu"}
         else:
-            keys = {"jac_fg": "jac_fg", "hess_lag": "hess_" + self._sqp_hessian}
+            keys = {"fg": "fg", "jac_fg": "jac_fg", "hess_lag": "hess_" + self._sqp_hessian}
         return {role: fn[key] for role, key in keys.items()}
 
     @property
@@ -667,14 +858,16 @@ class LeagueProblem:
         """The (shared) compile job of ``method``'s functions; None when codegen is off."""
         if not self.options.get("codegen", True):
             return None
-        key = (method, self._sqp_hessian)
-        if key not in self.nlp.jobs:
+        name = method
+        if method == "sqp_slots" and self.slots:
+            name = "sqp_slots{}s{}c{}m".format(*astuple(self.slots))
+        nlp = self._nlp(method)
+        key = (name, self._sqp_hessian)
+        if key not in nlp.jobs:
             s = self.structure
             label = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c"
-            self.nlp.jobs[key] = codegen.compile_functions(
-                self._functions(method), f"{label}_{method}"
-            )
-        return self.nlp.jobs[key]
+            nlp.jobs[key] = codegen.compile_functions(self._functions(method), f"{label}_{name}")
+        return nlp.jobs[key]
 
     def _call(self, method: str) -> _BufferedCall:
         if method not in self._calls:
@@ -687,33 +880,46 @@ class LeagueProblem:
         if compiled and job is not None:
             try:
                 functions = job.load()
+                if "fg" in functions:
+                    # the SQP's oracle: sqpmethod sets up (never calls: calc_lam_p is off)
+                    # a gradient function of it, which needs derivatives to exist
+                    functions = {**functions, "fg": job.external("fg", {"enable_fd": True})}
             except RuntimeError as err:  # a broken library: stay on the virtual machine
                 log.warning("loading %s failed: %s", job.library, err)
                 job.failed, compiled = True, False
-        s = self.structure
-        solver = self._build(method, functions)
+        nlp = self._nlp(method)
+        solver = self._build(method, functions, compiled)
         _BUILDS["solvers"] += 1
-        call = _BufferedCall(solver, s.n_vars, self.n_params, self.n_constraints)
+        call = _BufferedCall(solver, nlp.n_vars, nlp.n_params, nlp.n_constraints)
         call.compiled = compiled
         return call
 
-    def _build(self, method: str, functions: dict[str, ca.Function]) -> ca.Function:
-        if method not in METHODS:
+    def _build(
+        self, method: str, functions: dict[str, ca.Function], compiled: bool = False
+    ) -> ca.Function:
+        if method not in (*METHODS, "sqp_slots"):
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
         s = self.structure
         name = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c_{method}"
-        opts: dict[str, Any] = {"print_time": False, "error_on_fail": False}
-        # f and g stay symbolic: CasADi derives its own helpers (never called here) from them
-        nlp = self.nlp.nlp
+        opts: dict[str, Any] = dict(COMMON_OPTIONS)
+        # f and g symbolic: CasADi derives its own helpers (never called here) from them
+        nlp: Any = self._nlp(method).nlp
         if method == "ipopt":
             opts.update(functions, ipopt={**IPOPT_OPTIONS, **self.options.get("ipopt", {})})
             return ca.nlpsol(name, "ipopt", nlp, opts)
         opts.update(SQP_OPTIONS)
         opts.update(self.options.get("sqp", {}))
+        # f and g (line search, convergence test) on compiled code too when there is some
+        functions = dict(functions)
+        fg = functions.pop("fg")
+        if compiled:
+            nlp = fg
+        qpsol = str(self.options.get("qpsol", "qpoases"))
+        defaults = QPOASES_OPTIONS if qpsol == "qpoases" else {}
         opts.update(
             functions,
-            qpsol="qpoases",
-            qpsol_options={**QPOASES_OPTIONS, **self.options.get("qpoases", {})},
+            qpsol=qpsol,
+            qpsol_options={**defaults, **self.options.get(qpsol, {})},
         )
         with _quiet_stdout():  # qpOASES prints a licence banner when its memory is set up
             return ca.nlpsol(name, "sqpmethod", nlp, opts)
@@ -744,6 +950,131 @@ class LeagueProblem:
         upper = np.concatenate([q.u_upper.ravel(), np.full(n_slack, np.inf)])
         return lower, upper
 
+    def reduction(self, q: ProblemInputs) -> Reduction | None:
+        """What the SQP's reduced problem (:class:`Slots`) keeps of this step's problem, or
+        None when the full problem must be solved: no reduction for this structure, a robot
+        needing more zones or teammates than it has slots, or a negative ``δ2``, ``w3`` or
+        ``w4``.
+
+        **Why the reduced problem has the same solutions.** The velocity bounds confine robot
+        ``i``'s step to a disc of radius ``r_i = dt ‖(max(|lbu_ix|, |ubu_ix|), max(|lbu_iy|,
+        |ubu_iy|))‖`` around ``x_i``; every SQP iterate stays within the bounds (each QP
+        step does, and the line search moves along it), and so does the solution. Let
+        ``D(x⁺, μ) = √(‖μ − x⁺‖² + ε²) ≥ √(max(‖μ − x_i‖ − r_i, 0)² + ε²)`` and, as
+        ``‖â‖ < 1``, ``0 ≤ √(2 âᵀΣâ + ε_s) ≤ √(2 max(λ_max(Σ), 0) + ε_s)``, so ``β`` times
+        it is at most ``max(β, 0) √(2 max(λ_max(Σ), 0) + ε_s)``. Together a lower bound
+        ``H`` over the disc of a keep-out margin ``D − offset − β √(2 âᵀΣâ + ε_s)``.
+
+        1. A sensing row ``(i, l)`` with ``H_il > tol`` holds with ``ν_il = 0`` for every
+           control within the bounds. ``ν_il`` appears only there and in the objective with
+           weight ``w3 ≥ 0``, so ``ν_il = 0`` at every solution (any solution with ``ν_il >
+           0`` stays feasible and gets no worse with ``ν_il = 0``). Row and slack are dropped.
+        2. A comm row ``(i, k, q)`` is ``h_ik(x_i⁺) − δ2 ρ(x_i⁺ − x_q⁺) + ξ_ik ≥ 0`` with
+           ``ρ(v) = √(‖v‖² + ε²)`` increasing in ``‖v‖ ≤ d_iq + r_i + r_q`` (``d_iq = ‖x_i −
+           x_q‖``). If ``H_ik − δ2 max_q ρ(d_iq + r_i + r_q) > tol`` every row of ``(i, k)``
+           holds with ``ξ_ik = 0``: as in 1., the rows and ``ξ_ik`` are dropped.
+        3. For the comm zones a robot keeps, its rows differ only in the teammate. Let ``q*``
+           maximise ``d_iq − r_i − r_q``, a lower bound of ``‖x_i⁺ − x_q⁺‖``. A teammate with
+           ``d_iq + r_i + r_q < d_iq* − r_i − r_q*`` is always nearer than ``q*``, so
+           ``g_iqk ≥ g_iq*k`` (``δ2 ≥ 0``) and its row holds wherever row ``q*``'s does: it is
+           dropped.
+
+        So within the bounds the reduced and the full problem have the same feasible set up
+        to dropped slacks that are zero at every solution: the same solutions, with the
+        dropped rows' multipliers zero. ``tol`` (1e-9 m plus a relative 1e-9) covers rounding.
+        A slot left unused gets a zero selection column (its slack costs nothing and is fixed
+        at 0, its row is relaxed to ``−∞``): it changes nothing.
+        """
+        slots = self.slots
+        if slots is None:
+            return None
+        if np.any(q.comm_zones[:, 5] < 0) or q.weights[2] < 0 or q.weights[3] < 0:
+            return None
+        s = self.structure
+        n, nl, nk = s.n_robots, s.n_sensing_zones, s.n_comm_zones
+        x = q.positions
+        span = np.maximum(np.abs(q.u_lower), np.abs(q.u_upper))
+        reach = q.dt * np.hypot(span[:, 0], span[:, 1])
+        eps2 = PLAN_EPS**2
+
+        def above(value: np.ndarray) -> np.ndarray:
+            return np.asarray(value > 1e-9 * (1 + np.abs(value)))
+
+        def keep_out_bound(z: np.ndarray, offset: np.ndarray, beta: np.ndarray) -> np.ndarray:
+            """(robots, zones): ``H`` of each robot and zone row of ``z``."""
+            gap = np.hypot(z[:, 0] - x[:, :1], z[:, 1] - x[:, 1:]) - reach[:, None]
+            top = 0.5 * (z[:, 2] + z[:, 4]) + np.hypot(0.5 * (z[:, 2] - z[:, 4]), z[:, 3])
+            spread = np.sqrt(2 * np.maximum(top, 0.0) + SPREAD_EPS)
+            return np.sqrt(np.maximum(gap, 0.0) ** 2 + eps2) - offset - np.maximum(beta, 0) * spread
+
+        z = q.sensing_zones.reshape(nl, SENSING_COLUMNS)
+        need_s = ~above(keep_out_bound(z, z[:, 5], z[:, 6]))
+        d = np.hypot(x[:, None, 0] - x[None, :, 0], x[:, None, 1] - x[None, :, 1])
+        far = d + reach[:, None] + reach[None, :]
+        near = d - reach[:, None] - reach[None, :]
+        np.fill_diagonal(far, -np.inf)
+        np.fill_diagonal(near, -np.inf)
+        pair_top = np.sqrt(far.max(axis=1) ** 2 + eps2) if n > 1 else np.zeros(n)
+        z = q.comm_zones.reshape(nk, COMM_COLUMNS)
+        need_c = ~above(keep_out_bound(z, z[:, 7], z[:, 6]) - z[:, 5] * pair_top[:, None])
+        best = near.max(axis=1)
+        mates = far * (1 + 1e-9) + 1e-9 >= best[:, None]
+        needs_mates = np.asarray(need_c.any(axis=1))
+        mates &= needs_mates[:, None]
+        if (
+            need_s.sum(axis=1).max(initial=0) > slots.sensing
+            or need_c.sum(axis=1).max(initial=0) > slots.comm
+            or mates.sum(axis=1).max(initial=0) > slots.mates
+        ):
+            return None
+        n_s, n_c, n_m = slots.sensing, slots.comm, slots.mates
+        robot = np.arange(n)[:, None]
+        full_rows = nl + nk * (n - 1)  # rows per robot in the full problem
+        # the zones a robot needs fill its first slots, in zone order
+        ssel = np.zeros((n, n_s, nl))
+        slot_s = np.cumsum(need_s, axis=1) - 1
+        i_s, l_s = np.nonzero(need_s)
+        ssel[i_s, slot_s[i_s, l_s], l_s] = 1.0
+        csel = np.zeros((n, n_c, nk))
+        slot_c = np.cumsum(need_c, axis=1) - 1
+        i_c, k_c = np.nonzero(need_c)
+        csel[i_c, slot_c[i_c, k_c], k_c] = 1.0
+        # teammates by their guaranteed distance, farthest first (a stable slot order);
+        # unused teammate slots repeat the first, their rows relaxed
+        msel = np.zeros((n, n_m, max(n - 1, 0)))
+        order = np.argsort(np.where(mates, -near, np.inf), axis=1, kind="stable")[:, :n_m]
+        in_use = np.asarray(np.arange(n_m)[None, :] < mates.sum(axis=1)[:, None])
+        team = np.where(in_use, order, order[:, :1]) if n_m else order
+        team = team - (team > robot)  # teammates numbered without robot i
+        if n_m:
+            msel[robot, np.arange(n_m)[None, :], team] = needs_mates[:, None]
+        # each reduced row's full row, and whether it is in use
+        zone_s = np.einsum("isl,l->is", ssel, np.arange(nl))
+        zone_c = np.einsum("ick,k->ic", csel, np.arange(nk))
+        used_s, used_c = np.asarray(ssel.any(axis=2)), np.asarray(csel.any(axis=2))
+        rows_s = robot * full_rows + zone_s
+        rows_c = robot[:, :, None] * full_rows + nl + zone_c[:, :, None] * (n - 1)
+        rows_c = rows_c + team[:, None, :]
+        active_c = used_c[:, :, None] & in_use[:, None, :]
+        rows = np.concatenate([rows_s, rows_c.reshape(n, -1)], axis=1).astype(np.intp)
+        active = np.concatenate([used_s, active_c.reshape(n, -1)], axis=1)
+        # each reduced slack's variable in the full problem (−1: unused); ν of every robot,
+        # then ξ of every robot, as in the reduced problem's x
+        var_s = np.where(used_s, 2 * n + robot * nl + zone_s, -1)
+        var_c = np.where(used_c, 2 * n + n * nl + robot * nk + zone_c, -1)
+        dropped_lam_x = np.zeros(s.n_vars)
+        dropped_lam_x[2 * n : 2 * n + n * nl] = -q.weights[2]
+        dropped_lam_x[2 * n + n * nl :] = -q.weights[3]
+        return Reduction(
+            selection=np.concatenate([ssel.ravel(), csel.ravel(), msel.ravel()]),
+            rows=rows.ravel(),
+            active=active.ravel(),
+            variables=np.concatenate([var_s.ravel(), var_c.ravel()]).astype(np.intp),
+            n_u=2 * n,
+            n_constraints=self.n_constraints,
+            dropped_lam_x=dropped_lam_x,
+        )
+
     def split(self, decision: np.ndarray) -> np.ndarray:
         """Velocities (n, 2) from a decision vector."""
         return np.asarray(decision[: 2 * self.structure.n_robots]).reshape(-1, 2)
@@ -759,14 +1090,35 @@ class LeagueProblem:
         ``warm`` (a previous solution) gives the primal and dual starting point; without it
         the solve starts from zero velocities and zero multipliers.
         """
-        call = self._call(method or self.default_method)
+        method = method or self.default_method
         lbx, ubx = self.bounds(q)
         if warm is not None:
             x0, lam_x0, lam_g0 = np.clip(warm["x"], lbx, ubx), warm["lam_x"], warm["lam_g"]
         else:
             x0 = np.clip(np.zeros(self.structure.n_vars), lbx, ubx)
             lam_x0, lam_g0 = np.zeros(self.structure.n_vars), np.zeros(self.n_constraints)
-        solution = call(x0, self.pack_params(q), lbx, ubx, lam_x0, lam_g0)
+        reduction = self.reduction(q) if method == "sqp" else None
+        if reduction is None:
+            call = self._call(method)
+            solution = call(x0, self.pack_params(q), lbx, ubx, lam_x0, lam_g0, self._lbg)
+            return solution, call.stats()
+        call = self._call("sqp_slots")
+        r = reduction
+        used = r.variables >= 0
+        # an unused slot's slack is fixed at 0 (measured: cheaper for qpOASES than leaving
+        # it free, which enlarges the null space it works in)
+        lower = np.concatenate([lbx[: r.n_u], np.zeros(len(used))])
+        upper = np.concatenate([ubx[: r.n_u], np.where(used, np.inf, 0.0)])
+        reduced = call(
+            np.clip(r.reduce(x0), lower, upper),
+            np.concatenate([self.pack_params(q), r.selection]),
+            lower,
+            upper,
+            r.reduce(lam_x0),
+            r.reduce_rows(lam_g0),
+            np.where(r.active, 0.0, -np.inf),
+        )
+        solution = r.expand(reduced)
         return solution, call.stats()
 
 

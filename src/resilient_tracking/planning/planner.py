@@ -201,7 +201,7 @@ class LeaguePlanner(SolverLadder):
         return LeagueProblem(structure, "ipopt", self.options)
 
     def weigh(self, problem: LeagueProblem) -> float:
-        return float(problem.nlp.n_instructions)
+        return float(problem.n_instructions)
 
     def problem(self, structure: Structure) -> LeagueProblem:
         problem: LeagueProblem = super().problem(structure)
