@@ -909,10 +909,12 @@ class LeagueProblem:
             return ca.nlpsol(name, "ipopt", nlp, opts)
         opts.update(SQP_OPTIONS)
         opts.update(self.options.get("sqp", {}))
-        # f and g (line search, convergence test) on compiled code too when there is some
+        # f and g (line search, convergence test) on compiled code too when there is some, but
+        # not for the reduced problem: for a compiled oracle sqpmethod sets up finite
+        # differences over its ~2500 parameters (the slot selections), ≈ 35 MB per 20×20 solver
         functions = dict(functions)
         fg = functions.pop("fg")
-        if compiled:
+        if compiled and method != "sqp_slots":
             nlp = fg
         qpsol = str(self.options.get("qpsol", "qpoases"))
         defaults = QPOASES_OPTIONS if qpsol == "qpoases" else {}
