@@ -101,3 +101,18 @@ def test_column_tables_grow_in_blocks_and_keep_dtypes():
     assert frame["x"].iloc[-1] == 2 + 0.5 * 39
     assert frame["ok"].dtype == bool and frame["ok"].tolist()[-3:] == [True, False, False]
     assert frame["mode"].tolist()[:3] == ["track", "evade", "track"]
+
+
+@pytest.mark.parametrize(
+    ("solver", "first_rungs"), [("ladder", {"sqp"}), ("ipopt", {"cold", "warm"})]
+)
+def test_the_scenarios_planner_solver_is_used(solver, first_rungs):
+    seen: list[str] = []
+
+    def record(rung, solution, stats):
+        seen.append(rung)
+        return solution, stats
+
+    scenario = shipped("sensing-temp").with_overrides(steps=5, planner={"solver": solver})
+    run_episode(scenario, seed=1, fault_hook=record)
+    assert seen and set(seen) <= first_rungs, seen

@@ -236,7 +236,7 @@ def run_episode(
     started = time.perf_counter()
     world = World(scenario, seed)
     config = TeamConfig.from_scenario(scenario)
-    planner = LeaguePlanner(fault_hook=fault_hook)
+    planner = LeaguePlanner(scenario.planner.solver, fault_hook=fault_hook)
     policy_obj = make_policy(policy_name, scenario, config, planner)
     team = Team(policy_obj, initial_estimate(scenario, world, seed))
     recorder = _Recorder(world, scenario.steps)
