@@ -22,10 +22,10 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from benchmarks.common import SCENARIOS, SHIPPED, machine, save, table
-from resilient_tracking import policies
 from resilient_tracking.planning.league_problem import wait_for_compilers
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.scenario import Scenario, load_scenario
+from resilient_tracking.sim import episode
 from resilient_tracking.sim.episode import run_episode
 
 
@@ -41,17 +41,17 @@ TIGHT = "ipopt-tol1e-9"
 
 def timed(name: str, solver: str, seed: int) -> dict[str, Any]:
     if solver == TIGHT:
-        policies.LeaguePlanner = functools.partial(  # type: ignore[attr-defined]
+        episode.LeaguePlanner = functools.partial(  # type: ignore[misc,assignment]
             LeaguePlanner, options={"ipopt": {"tol": 1e-9}}
         )
         s = scenario(name, "ipopt")
     else:
-        policies.LeaguePlanner = LeaguePlanner  # type: ignore[attr-defined]
+        episode.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
         s = scenario(name, solver)
     start, cpu = time.perf_counter(), time.process_time()
     result = run_episode(s, seed=seed)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-    policies.LeaguePlanner = LeaguePlanner  # type: ignore[attr-defined]
+    episode.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
     team = result["team"]
     events = result["events"]
     return {
