@@ -7,7 +7,6 @@ derivatives are right, and that solving it gives the full problem's solution.
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 import pytest
 
@@ -21,6 +20,7 @@ from resilient_tracking.planning.league_problem import (
     Structure,
     reduced_slots,
 )
+from test_planner import automatic_derivatives, check_derivatives, league_inputs, structure_of
 
 
 def scene(n: int, big_n: int, nl: int, nk: int, seed: int) -> ProblemInputs:
@@ -40,23 +40,7 @@ def scene(n: int, big_n: int, nl: int, nk: int, seed: int) -> ProblemInputs:
         for k in range(nk)
     ]
     upper = rng.uniform(0.5, 1.0, (n, 2))
-    return ProblemInputs(
-        positions=positions,
-        sensing=np.ones(n),
-        targets=targets,
-        prior_info=np.repeat(np.eye(2)[None] * 3.0, big_n, axis=0),
-        weights=np.array([50.0, 0.05, 200.0, 100.0]),
-        sensor=np.array([15.0, 0.2, 15.0, 0.2]),
-        dt=0.1,
-        u_lower=-upper[:, ::-1],
-        u_upper=upper,
-        sensing_zones=np.array(szones, dtype=float).reshape(-1, 7),
-        comm_zones=np.array(czones, dtype=float).reshape(-1, 8),
-    )
-
-
-def structure_of(q: ProblemInputs) -> Structure:
-    return Structure(len(q.positions), len(q.targets), len(q.sensing_zones), len(q.comm_zones))
+    return league_inputs(positions, targets, szones, czones, -upper[:, ::-1], upper)
 
 
 def test_only_leagues_with_something_to_drop_are_reduced():
@@ -82,14 +66,7 @@ def test_reduced_derivatives_equal_automatic_differentiation(shape, slots):
     q.sensing[0] = 0.0
     nlp = LeagueNLP(structure_of(q), slots=slots)
     problem = LeagueProblem(structure_of(q))
-    x, p = nlp.x, nlp.p
-    lam_f, lam_g = ca.SX.sym("lf"), ca.SX.sym("lg", nlp.n_constraints)
-    lagrangian = lam_f * nlp.nlp["f"] + ca.dot(lam_g, nlp.nlp["g"])
-    reference = ca.Function(
-        "ref",
-        [x, p, lam_f, lam_g],
-        [ca.gradient(nlp.nlp["f"], x), ca.jacobian(nlp.nlp["g"], x), ca.hessian(lagrangian, x)[0]],
-    )
+    reference = automatic_derivatives(nlp)
     rng = np.random.default_rng(1)
 
     def selection(choices: int, columns: int) -> np.ndarray:
@@ -110,11 +87,7 @@ def test_reduced_derivatives_equal_automatic_differentiation(shape, slots):
         )
         xv = rng.uniform(-1, 1, nlp.n_vars)
         lg = rng.uniform(-3, 1, nlp.n_constraints)
-        grad, jac, hess = (m.full() for m in reference(xv, pv, 0.7, lg))
-        f = nlp.functions
-        np.testing.assert_allclose(f["grad_f"](xv, pv)[1].full().ravel(), grad.ravel(), atol=1e-9)
-        np.testing.assert_allclose(f["jac_g"](xv, pv)[1].full(), jac, atol=1e-9)
-        np.testing.assert_allclose(f["hess_exact"](xv, pv, 0.7, lg).full(), hess, atol=1e-8)
+        check_derivatives(nlp, reference, xv, pv, lg)
 
 
 @pytest.mark.parametrize("seed", range(6))

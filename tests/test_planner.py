@@ -30,16 +30,21 @@ def inputs(n: int = 3, big_n: int = 3, seed: int = 0, sensing_zones: int = 1, co
         [0.1, -0.5 + 0.3 * k, 0.15, 0.0, 0.15, 0.3, chance_margin(0.15), 0.0]
         for k in range(comm_zones)
     ]
+    return league_inputs(positions, targets, szones, czones, -np.ones((n, 2)), np.ones((n, 2)))
+
+
+def league_inputs(positions, targets, szones, czones, u_lower, u_upper) -> ProblemInputs:
+    """Inputs with every robot sensing, a common prior, the tests' weights and sensor."""
     return ProblemInputs(
         positions=positions,
-        sensing=np.ones(n),
+        sensing=np.ones(len(positions)),
         targets=targets,
-        prior_info=np.repeat(np.eye(2)[None] * 3.0, big_n, axis=0),
+        prior_info=np.repeat(np.eye(2)[None] * 3.0, len(targets), axis=0),
         weights=np.array([50.0, 0.05, 200.0, 100.0]),
         sensor=np.array([15.0, 0.2, 15.0, 0.2]),
         dt=0.1,
-        u_lower=-np.ones((n, 2)),
-        u_upper=np.ones((n, 2)),
+        u_lower=u_lower,
+        u_upper=u_upper,
         sensing_zones=np.array(szones, dtype=float).reshape(-1, 7),
         comm_zones=np.array(czones, dtype=float).reshape(-1, 8),
     )
@@ -49,6 +54,28 @@ def structure_of(q: ProblemInputs) -> Structure:
     return Structure(len(q.positions), len(q.targets), len(q.sensing_zones), len(q.comm_zones))
 
 
+def automatic_derivatives(nlp: LeagueNLP) -> ca.Function:
+    """∇f, ∂g/∂x and ∇²L by CasADi's automatic differentiation: the reference for ours."""
+    x, p = nlp.x, nlp.p
+    lam_f, lam_g = ca.SX.sym("lf"), ca.SX.sym("lg", nlp.n_constraints)
+    lagrangian = lam_f * nlp.nlp["f"] + ca.dot(lam_g, nlp.nlp["g"])
+    return ca.Function(
+        "ref",
+        [x, p, lam_f, lam_g],
+        [ca.gradient(nlp.nlp["f"], x), ca.jacobian(nlp.nlp["g"], x), ca.hessian(lagrangian, x)[0]],
+    )
+
+
+def check_derivatives(nlp: LeagueNLP, reference: ca.Function, xv, pv, lg) -> np.ndarray:
+    """Our ∇f, ∂g/∂x and ∇²L (λ_f = 0.7) against ``reference`` at one point; the exact ∇²L."""
+    grad, jac, hess = (m.full() for m in reference(xv, pv, 0.7, lg))
+    f = nlp.functions
+    np.testing.assert_allclose(f["grad_f"](xv, pv)[1].full().ravel(), grad.ravel(), atol=1e-9)
+    np.testing.assert_allclose(f["jac_g"](xv, pv)[1].full(), jac, atol=1e-9)
+    np.testing.assert_allclose(f["hess_exact"](xv, pv, 0.7, lg).full(), hess, atol=1e-8)
+    return hess
+
+
 @pytest.mark.parametrize("shape", [(1, 2, 1, 0), (3, 3, 1, 1), (4, 2, 2, 2), (2, 3, 0, 0)])
 def test_structured_derivatives_equal_automatic_differentiation(shape):
     n, big_n, nl, nk = shape
@@ -56,24 +83,14 @@ def test_structured_derivatives_equal_automatic_differentiation(shape):
     q.sensing[0] = 0.0  # a robot without its sensor drops out of the tracking term
     nlp = LeagueNLP(structure_of(q))
     problem = LeagueProblem(structure_of(q))
-    x, p = nlp.x, nlp.p
-    lam_f, lam_g = ca.SX.sym("lf"), ca.SX.sym("lg", nlp.n_constraints)
-    lagrangian = lam_f * nlp.nlp["f"] + ca.dot(lam_g, nlp.nlp["g"])
-    reference = ca.Function(
-        "ref",
-        [x, p, lam_f, lam_g],
-        [ca.gradient(nlp.nlp["f"], x), ca.jacobian(nlp.nlp["g"], x), ca.hessian(lagrangian, x)[0]],
-    )
+    reference = automatic_derivatives(nlp)
     rng = np.random.default_rng(1)
     for _ in range(3):
         xv = rng.uniform(-1, 1, nlp.structure.n_vars)
         lg = rng.uniform(-3, 1, nlp.n_constraints)
         pv = problem.pack_params(q)
-        grad, jac, hess = (m.full() for m in reference(xv, pv, 0.7, lg))
+        hess = check_derivatives(nlp, reference, xv, pv, lg)
         f = nlp.functions
-        np.testing.assert_allclose(f["grad_f"](xv, pv)[1].full().ravel(), grad.ravel(), atol=1e-9)
-        np.testing.assert_allclose(f["jac_g"](xv, pv)[1].full(), jac, atol=1e-9)
-        np.testing.assert_allclose(f["hess_exact"](xv, pv, 0.7, lg).full(), hess, atol=1e-8)
         np.testing.assert_allclose(
             f["hess_exact_triu"](xv, pv, 0.7, lg).full(), np.triu(hess), atol=1e-8
         )
