@@ -21,20 +21,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.experiments.catalog import SIX
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.soak import non_finite_cells
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = (
-    "sensing-temp",
-    "sensing-perm",
-    "comm-temp",
-    "comm-perm",
-    "combined-temp",
-    "combined-perm",
-)
 
 
 def closer_to_known_zone(result) -> int:
@@ -56,7 +49,7 @@ def closer_to_known_zone(result) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
+    parser.add_argument("--scenarios", nargs="+", default=list(SIX))
     parser.add_argument("--policies", nargs="+", default=["failure_aware", "vanilla"])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--probability", type=float, default=0.3)

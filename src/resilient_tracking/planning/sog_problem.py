@@ -32,7 +32,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.planning.league_problem import measurement_information
+from resilient_tracking.planning.league_problem import IPOPT_OPTIONS, measurement_information
 from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
 
 log = logging.getLogger(__name__)
@@ -190,15 +190,7 @@ class SogProblem:
         }
         opts: dict[str, Any] = {"print_time": False, "error_on_fail": False}
         if solver == "ipopt":
-            opts["ipopt"] = {
-                "print_level": 0,
-                "sb": "yes",
-                "max_iter": 200,
-                "tol": 1e-8,
-                "acceptable_tol": 1e-5,
-                "warm_start_init_point": "yes",
-                "mu_init": 1e-3,
-            }
+            opts["ipopt"] = dict(IPOPT_OPTIONS)  # the league planner's robust rungs' settings
         self.solver = ca.nlpsol(f"sog_{n}x{big_n}_{nz}z", solver, nlp, opts)
 
     def pack_params(self, q: SogInputs) -> np.ndarray:
