@@ -29,8 +29,8 @@ import numpy as np
 from benchmarks import naive
 from benchmarks.common import IMAGES, machine, save, summary_ms, table
 from benchmarks.league_loop import CASES, LeagueCase, LeagueLoop, active_fraction
-from resilient_tracking.planning.league_problem import LeagueProblem
-from resilient_tracking.planning.planner import LeaguePlanner
+from resilient_tracking.planning.league_problem import LeagueProblem, ProblemInputs
+from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 
 #: steps between two naive solves, per league size (the naive 20×20 takes seconds per step)
 NAIVE_EVERY = {"3x3": 1, "5x5": 2, "10x10": 10, "20x20": 20}
@@ -110,30 +110,29 @@ def run_case(case: LeagueCase, steps: int, naive_every: int, seed: int = 0) -> d
     recorded, active = [], []
     last_q, last_solution = None, None
     reduced = 0  # steps the SQP could solve the reduced problem
+
+    def solve(name: str, q: ProblemInputs) -> PlanResult:
+        """One timed league solve by ``planners[name]``, recorded under ``name``."""
+        t, c = time.perf_counter(), time.process_time()
+        r = planners[name].plan(s, members, q)
+        times[name].append((time.perf_counter() - t) * 1e3)
+        cpu[name].append((time.process_time() - c) * 1e3)
+        iters[name].append(r.iterations)
+        rungs[name][r.rung] += 1
+        failures[name] += not r.success
+        controls[name].append(r.controls)
+        return r
+
     for q in loop.run(steps):
         reduced += planners["ladder"].problem(s).reduction(q) is not None
-        t, c = time.perf_counter(), time.process_time()
-        r = planners["ladder"].plan(s, members, q)
-        times["ladder"].append((time.perf_counter() - t) * 1e3)
-        cpu["ladder"].append((time.process_time() - c) * 1e3)
-        iters["ladder"].append(r.iterations)
-        rungs["ladder"][r.rung] += 1
-        failures["ladder"] += not r.success
-        controls["ladder"].append(r.controls)
+        r = solve("ladder", q)
         active.append(active_fraction(q, r.controls))
         recorded.append(copy.deepcopy(q))
         last_q, last_solution = q, planners["ladder"]._warm.get((s, members))
         loop.apply(q, r.controls)
     # Pass 2: IPOPT only, warm-started from its own previous solution.
     for q in recorded:
-        t, c = time.perf_counter(), time.process_time()
-        r = planners["ipopt"].plan(s, members, q)
-        times["ipopt"].append((time.perf_counter() - t) * 1e3)
-        cpu["ipopt"].append((time.process_time() - c) * 1e3)
-        iters["ipopt"].append(r.iterations)
-        rungs["ipopt"][r.rung] += 1
-        failures["ipopt"] += not r.success
-        controls["ipopt"].append(r.controls)
+        solve("ipopt", q)
     # Pass 3: the naive reference on every ``naive_every``-th step.
     du_naive = []
     for k in range(0, len(recorded), naive_every or len(recorded) + 1):
