@@ -29,15 +29,20 @@ from resilient_tracking.sim.records import ColumnTable, EpisodeResult, frame
 from resilient_tracking.team import Team, TeamStep
 from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world import World
+from resilient_tracking.world.zones import TrueZone
 
 log = logging.getLogger(__name__)
 
 
 def initial_estimate(scenario: Scenario, world: World, seed: int) -> TargetEstimate:
     """The team's prior: truth perturbed by the declared initial uncertainty (own stream)."""
+    return prior_estimate(scenario, world.target_states, seed)
+
+
+def prior_estimate(scenario: Scenario, truth: np.ndarray, seed: int) -> TargetEstimate:
+    """The prior around the targets' starting states ``truth`` (N, 4), seeded like an episode."""
     spec = scenario.estimator
     std = np.array([spec.initial_position_std] * 2 + [spec.initial_velocity_std] * 2)
-    truth = world.target_states
     noise = stream(seed, "estimator_init").standard_normal(truth.shape) * std
     return TargetEstimate.initial(
         truth + noise, spec.initial_position_std, spec.initial_velocity_std
@@ -47,11 +52,29 @@ def initial_estimate(scenario: Scenario, world: World, seed: int) -> TargetEstim
 INT, FLOAT, BOOL = np.int64, np.float64, np.bool_
 
 
-class _Recorder:
-    """Collects rows while the episode runs: the per-step tables as compact columns."""
+def build_team(
+    scenario: Scenario,
+    policy_name: str,
+    seed: int,
+    initial_targets: np.ndarray,
+    fault_hook: FaultHook | None = None,
+) -> Team:
+    """The team of an episode: policy, planner and the seeded prior around ``initial_targets``."""
+    config = TeamConfig.from_scenario(scenario)
+    planner = LeaguePlanner(scenario.planner.solver, fault_hook=fault_hook)
+    policy_obj = make_policy(policy_name, scenario, config, planner)
+    return Team(policy_obj, prior_estimate(scenario, initial_targets, seed))
 
-    def __init__(self, world: World, steps: int):
-        n_robots, n_targets = len(world.robot_positions), len(world.target_states)
+
+class EpisodeRecorder:
+    """Collects rows while the episode runs: the per-step tables as compact columns.
+
+    Used by :func:`run_episode` and by anything else that steps a :class:`Team` (the ROS 2
+    tracker node), so every run folder has the same tables. ``zones`` are the true zones, kept
+    for plots only.
+    """
+
+    def __init__(self, n_robots: int, n_targets: int, zones: list[TrueZone], steps: int):
         self.team = ColumnTable(
             {
                 "step": INT,
@@ -114,7 +137,7 @@ class _Recorder:
                 "true_x": z.center[0],
                 "true_y": z.center[1],
             }
-            for z in world.zones
+            for z in zones
         ]
 
     def event(self, e: Event) -> None:
@@ -235,11 +258,8 @@ def run_episode(
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
     world = World(scenario, seed)
-    config = TeamConfig.from_scenario(scenario)
-    planner = LeaguePlanner(scenario.planner.solver, fault_hook=fault_hook)
-    policy_obj = make_policy(policy_name, scenario, config, planner)
-    team = Team(policy_obj, initial_estimate(scenario, world, seed))
-    recorder = _Recorder(world, scenario.steps)
+    team = build_team(scenario, policy_name, seed, world.target_states, fault_hook)
+    recorder = EpisodeRecorder(world.n_robots, len(world.targets), world.zones, scenario.steps)
     for _ in range(scenario.steps):
         obs = world.observe()
         truth = world.target_states
@@ -258,7 +278,14 @@ def run_episode(
         scenario.steps,
         wall,
     )
-    manifest = {
+    return recorder.result(episode_manifest(scenario, seed, policy_name, scenario.steps, wall))
+
+
+def episode_manifest(
+    scenario: Scenario, seed: int, policy_name: str, steps: int, wall: float
+) -> dict[str, Any]:
+    """The manifest of a run folder: what ran, with which versions, how long it took."""
+    return {
         "scenario": scenario.model_dump(mode="json"),
         "seed": seed,
         "policy": policy_name,
@@ -266,7 +293,6 @@ def run_episode(
         "casadi": casadi.CasadiMeta.version(),
         "numpy": np.__version__,
         "python": platform.python_version(),
-        "steps": scenario.steps,
+        "steps": steps,
         "wall_time_s": round(wall, 3),
     }
-    return recorder.result(manifest)

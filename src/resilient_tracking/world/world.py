@@ -31,6 +31,30 @@ class Failure:
     cause: str = "hazard"  # "hazard" | "jamming"
 
 
+def make_zones(scenario: Scenario, seed: int) -> list[TrueZone]:
+    """The episode's zones with their true centres, drawn from the ``zone_centers`` stream."""
+    centers_rng = stream(seed, "zone_centers")
+    return [TrueZone(k, spec, centers_rng) for k, spec in enumerate(scenario.zones)]
+
+
+def clip_velocities(
+    positions: np.ndarray,
+    controls: np.ndarray,
+    u_max: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    dt: float,
+) -> np.ndarray:
+    """Velocity bounds per component, then keep the next position inside the workspace.
+
+    A pure function of the robots' own positions, so a robot-side node can apply the same
+    clipping to its commands as the simulator does.
+    """
+    u = np.clip(np.nan_to_num(controls, nan=0.0), -u_max[:, None], u_max[:, None])
+    nxt = np.clip(positions + u * dt, lower, upper)
+    return (nxt - positions) / dt
+
+
 class World:
     """Ground truth of one episode. Only the simulator holds it."""
 
@@ -42,8 +66,7 @@ class World:
         self._rng_attacks = stream(seed, "attacks")
         self._rng_measurements = stream(seed, "measurements")
         self._rng_targets = stream(seed, "target_motion")
-        centers_rng = stream(seed, "zone_centers")
-        self.zones = [TrueZone(k, spec, centers_rng) for k, spec in enumerate(scenario.zones)]
+        self.zones = make_zones(scenario, seed)
         self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
         self.targets = [TargetTruth(t) for t in scenario.targets]
@@ -111,22 +134,45 @@ class World:
 
     def clip_controls(self, controls: np.ndarray) -> np.ndarray:
         """Velocity bounds per component, then keep the next position inside the workspace."""
-        u = np.clip(np.nan_to_num(controls, nan=0.0), -self.u_max[:, None], self.u_max[:, None])
         ws = self.scenario.workspace
-        nxt = np.clip(self.robot_positions + u * self.dt, ws.lower, ws.upper)
-        return (nxt - self.robot_positions) / self.dt
+        return clip_velocities(
+            self.robot_positions, controls, self.u_max, ws.lower, ws.upper, self.dt
+        )
 
     def step(self, controls: np.ndarray) -> np.ndarray:
         """Advance one step with velocity ``controls`` (M, 2); returns the controls applied."""
         u = self.clip_controls(np.asarray(controls, dtype=float))
-        self.robot_positions = self.robot_positions + u * self.dt
+        self.advance(u)
+        return u
+
+    def advance(self, applied: np.ndarray) -> None:
+        """Advance one step with velocities already clipped by :func:`clip_velocities`."""
+        self.robot_positions = self.robot_positions + applied * self.dt
         for target in self.targets:
             target.step(self.dt, self._rng_targets)
+        self._after_move()
+
+    def place(self, robots: np.ndarray, targets: np.ndarray, first: bool = False) -> None:
+        """Motion capture: set the true robot and target positions (M, 2), (N, 2) as measured.
+
+        The zones then act as after a simulated step (attacks, recoveries, links); ``first``
+        places the starting positions of step 0 instead, recomputing only the links.
+        """
+        self.robot_positions = np.array(robots, dtype=float).reshape(self.n_robots, 2)
+        for target, position in zip(self.targets, np.asarray(targets, dtype=float), strict=True):
+            if not first:
+                target.velocity = (position - target.position) / self.dt
+            target.position = position.copy()
+        if first:
+            self.links = self._compute_links()
+        else:
+            self._after_move()
+
+    def _after_move(self) -> None:
         self.step_index += 1
         self._draw_attacks()
         self._recover()
         self.links = self._compute_links()
-        return u
 
     def _draw_attacks(self) -> None:
         # One uniform per (zone, robot) every step, whatever the state: common random numbers.
