@@ -144,6 +144,147 @@ def cmd_animate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] | None:
+    """Scenario, seed and node settings of ``rtrack node``/``world``; None after an error."""
+    try:
+        from resilient_tracking.ros2 import require_extra
+
+        require_extra()
+    except ImportError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return None
+    from resilient_tracking.ros2.topics import NodeSettings
+
+    scenario = _load(args.scenario)
+    if scenario is None:
+        return None
+    if args.seed is not None and args.seed < 0:
+        print("error: --seed: must be non-negative", file=sys.stderr)
+        return None
+    for name in ("pose_timeout", "observation_timeout", "give_up", "startup_timeout"):
+        if getattr(args, name) <= 0:
+            print(f"error: --{name.replace('_', '-')}: must be positive", file=sys.stderr)
+            return None
+    settings = NodeSettings.for_scenario(
+        scenario,
+        robot_prefix=args.robot_prefix,
+        target_prefix=args.target_prefix,
+        command=args.command,
+        lockstep=args.lockstep,
+        altitude=args.altitude,
+        frame=args.frame,
+        domain_id=args.domain,
+        pose_timeout=args.pose_timeout,
+        observation_timeout=args.observation_timeout,
+        give_up=args.give_up,
+        startup_timeout=args.startup_timeout,
+    )
+    return scenario, (scenario.seed if args.seed is None else args.seed), settings
+
+
+def _stop_on_signals() -> object:
+    """An event set by SIGINT/SIGTERM, so a node stops cleanly (the tracker writes its run)."""
+    import signal
+    import threading
+
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+def cmd_node(args: argparse.Namespace) -> int:
+    setup = _ros2_node_setup(args)
+    if setup is None:
+        return 1
+    scenario, seed, settings = setup
+    from resilient_tracking.ros2.bag import BagRecorder
+    from resilient_tracking.ros2.tracker_node import TrackerNode
+    from resilient_tracking.sim.records import is_run_folder, write_run
+
+    policy = args.policy or scenario.policy.name
+    out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}-ros2")
+    if out.exists() and not is_run_folder(out):
+        print(f"error: --out: {out} exists and is not a run folder", file=sys.stderr)
+        return 1
+    try:
+        bag = BagRecorder(args.bag) if args.bag else None
+    except FileExistsError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    node = TrackerNode(scenario, seed, policy, settings, bag=bag)  # type: ignore[arg-type]
+    stop = _stop_on_signals()
+    try:
+        with tqdm(total=scenario.steps, desc="node", unit="step", disable=args.quiet) as bar:
+            result = node.run(stop=stop, progress=lambda n: bar.update(n))  # type: ignore[arg-type]
+    finally:
+        if bag is not None:
+            bag.close()
+    write_run(result, out)
+    done = len(result["team"])
+    print(
+        f"wrote {out}: {done}/{scenario.steps} steps, {node.holds} holds, "
+        f"{node.dropped} dropped messages" + (f"; bag {args.bag}" if bag else "")
+    )
+    return 0 if done == scenario.steps else 3
+
+
+def cmd_world(args: argparse.Namespace) -> int:
+    setup = _ros2_node_setup(args)
+    if setup is None:
+        return 1
+    scenario, seed, settings = setup
+    from resilient_tracking.ros2.world_node import WorldNode
+
+    try:
+        node = WorldNode(scenario, seed, settings, args.mode)  # type: ignore[arg-type]
+        stop = _stop_on_signals()
+        with tqdm(total=scenario.steps, desc="world", unit="step", disable=args.quiet) as bar:
+            done = node.run(stop=stop, progress=lambda n: bar.update(n))  # type: ignore[arg-type]
+    except (ValueError, TimeoutError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    print(f"world: {done}/{scenario.steps} steps")
+    return 0 if done == scenario.steps else 3
+
+
+def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """``rtrack node`` and ``rtrack world``: the team and its world over ROS 2 (DDS)."""
+    for verb, func, help_text in (
+        ("node", cmd_node, "run the team as a ROS 2-compatible tracker node (docs/robots.md)"),
+        ("world", cmd_world, "publish a simulated or motion-capture world over ROS 2"),
+    ):
+        p = sub.add_parser(verb, help=help_text)
+        p.add_argument("scenario")
+        p.add_argument("--seed", type=int, default=None, help="episode seed (default: the file's)")
+        p.add_argument(
+            "--lockstep", action="store_true", help="deterministic: world waits for commands"
+        )
+        p.add_argument(
+            "--command",
+            choices=("full_state", "twist"),
+            default="full_state",
+            help="Crazyswarm2 cmd_full_state (default) or geometry_msgs/Twist cmd_vel",
+        )
+        p.add_argument("--robot-prefix", default="cf", help="robot names PREFIX1.. (default cf)")
+        p.add_argument("--target-prefix", default="target", help="target names (default target)")
+        p.add_argument("--altitude", type=float, default=0.5, help="flight altitude, m")
+        p.add_argument("--frame", default="world", help="frame_id of poses and setpoints")
+        p.add_argument("--domain", type=int, default=None, help="DDS domain (ROS_DOMAIN_ID)")
+        p.add_argument("--pose-timeout", type=float, default=0.5, help="stale pose, s")
+        p.add_argument("--observation-timeout", type=float, default=1.0, help="hold after, s")
+        p.add_argument("--give-up", type=float, default=30.0, help="stop after silence, s")
+        p.add_argument("--startup-timeout", type=float, default=60.0, help="discovery wait, s")
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+        p.set_defaults(func=func)
+        if verb == "node":
+            p.add_argument("--out", default=None, help="run folder")
+            p.add_argument("--policy", choices=POLICY_NAMES, default=None)
+            p.add_argument("--bag", default=None, metavar="FILE", help="also write a ROS 2 bag")
+        else:
+            p.add_argument("--mode", choices=("sim", "mocap"), default="sim")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rtrack", description="Failure-aware multi-robot target tracking."
@@ -196,6 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--fps", type=int, default=10)
     p.set_defaults(func=cmd_animate)
+    _add_ros2_parsers(sub)
     return parser
 
 

@@ -1,0 +1,60 @@
+"""Topic names and the settings both nodes share.
+
+Default names follow Crazyswarm2: robot ``i`` is ``cf{i+1}`` with its pose on ``/cf1/pose``
+and its commands on ``/cf1/cmd_full_state``; targets are ``target{j+1}`` with poses on
+``/target1/pose`` (motion capture publishes rigid bodies by name). The synthesized observations
+are on ``/rtrack/observation`` and the team's belief on ``/rtrack/belief``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from resilient_tracking.scenario import Scenario
+
+CommandKind = Literal["full_state", "twist"]
+
+OBSERVATION_TOPIC = "/rtrack/observation"
+BELIEF_TOPIC = "/rtrack/belief"
+
+
+@dataclass
+class NodeSettings:
+    """What the tracker and world nodes must agree on."""
+
+    robots: list[str]
+    targets: list[str]
+    #: ``full_state``: Crazyswarm2's ``cmd_full_state``; ``twist``: ``cmd_vel`` (Twist).
+    command: CommandKind = "full_state"
+    lockstep: bool = False
+    #: flight altitude (m) for drones' setpoints and simulated poses
+    altitude: float = 0.5
+    frame: str = "world"
+    domain_id: int | None = None
+    #: a pose older than this (s) counts as stale: hold position
+    pose_timeout: float = 0.5
+    #: no observation for this long (s): hold position
+    observation_timeout: float = 1.0
+    #: no observation for this long (s): give up and write what was recorded
+    give_up: float = 30.0
+    #: lock-step: how long to wait for the other node to appear (s)
+    startup_timeout: float = 60.0
+
+    @classmethod
+    def for_scenario(
+        cls,
+        scenario: Scenario,
+        robot_prefix: str = "cf",
+        target_prefix: str = "target",
+        **kwargs: object,
+    ) -> NodeSettings:
+        robots = [f"{robot_prefix}{i + 1}" for i in range(len(scenario.robots))]
+        targets = [f"{target_prefix}{j + 1}" for j in range(len(scenario.targets))]
+        return cls(robots=robots, targets=targets, **kwargs)  # type: ignore[arg-type]
+
+    def pose_topic(self, name: str) -> str:
+        return f"/{name}/pose"
+
+    def command_topic(self, robot: str) -> str:
+        return f"/{robot}/cmd_full_state" if self.command == "full_state" else f"/{robot}/cmd_vel"

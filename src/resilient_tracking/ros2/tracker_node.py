@@ -1,0 +1,281 @@
+"""The tracker node: the team on robots, as a ROS 2-compatible node over DDS.
+
+It subscribes to each robot's pose (``/cfN/pose``), to the synthesized observations
+(``/rtrack/observation``) and, for the run tables only, to the targets' poses. For each new
+observation it runs ``Team.step``, clips the commands to the robots' limits and the workspace
+(as the simulator does), publishes one velocity setpoint per robot and the belief for RViz, and
+records the step with the same recorder as ``rtrack run``.
+
+Whatever goes wrong gives a hold-position command and a logged warning, never a crash: a robot
+pose older than ``pose_timeout``, no observation for ``observation_timeout`` (the world node is
+gone), a malformed message (dropped, the field named), or a planner exception.
+
+In lock-step the observation of step ``k`` is paired with the poses stamped with the same time
+(``k·dt``), so the run sees exactly the arrays a simulated run sees.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import OrderedDict, deque
+from collections.abc import Callable
+
+import numpy as np
+
+from resilient_tracking.ros2 import msgs
+from resilient_tracking.ros2.bag import BagRecorder
+from resilient_tracking.ros2.convert import (
+    MessageError,
+    full_state,
+    observation_from_msg,
+    pose_xy,
+    stamp_from_ns,
+    stamp_ns,
+    twist,
+)
+from resilient_tracking.ros2.markers import belief_markers
+from resilient_tracking.ros2.topics import BELIEF_TOPIC, OBSERVATION_TOPIC, NodeSettings
+from resilient_tracking.ros2.transport import (
+    DdsNode,
+    default_qos,
+    lockstep_qos,
+    sensor_data_qos,
+    take,
+)
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.sim.episode import EpisodeRecorder, build_team, episode_manifest
+from resilient_tracking.sim.records import EpisodeResult
+from resilient_tracking.world.targets import TargetTruth
+from resilient_tracking.world.world import clip_velocities, make_zones
+
+log = logging.getLogger(__name__)
+
+_POSES_KEPT = 64  # poses remembered per body for lock-step pairing
+
+
+class _Body:
+    """The poses received for one robot or target."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.by_stamp: OrderedDict[int, np.ndarray] = OrderedDict()
+        self.latest: np.ndarray | None = None
+        self.received_at = -np.inf
+
+    def add(self, msg: msgs.PoseStamped, now: float) -> None:
+        xy = pose_xy(msg, f"/{self.name}/pose")
+        self.by_stamp[stamp_ns(msg.header.stamp)] = xy
+        while len(self.by_stamp) > _POSES_KEPT:
+            self.by_stamp.popitem(last=False)
+        self.latest, self.received_at = xy, now
+
+
+class TrackerNode:
+    """Runs the team of ``scenario`` against DDS topics; :meth:`run` returns the run's tables."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        seed: int,
+        policy: str,
+        settings: NodeSettings,
+        bag: BagRecorder | None = None,
+    ):
+        self.scenario, self.seed, self.policy, self.settings = scenario, seed, policy, settings
+        self.bag = bag
+        self.dt = scenario.dt
+        initial = np.array([TargetTruth(t).state for t in scenario.targets])
+        self.team = build_team(scenario, policy, seed, initial)
+        # the zones' truth is recorded for plots only, as in `rtrack run`; the team never sees it
+        self.recorder = EpisodeRecorder(
+            len(scenario.robots), len(scenario.targets), make_zones(scenario, seed), scenario.steps
+        )
+        self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
+        self.steps_done = 0
+        self.holds = 0
+        self.dropped = 0
+
+        s = settings
+        self.node = DdsNode(s.domain_id)
+        pose_qos = lockstep_qos() if s.lockstep else sensor_data_qos()
+        out_qos = lockstep_qos() if s.lockstep else default_qos()
+        self.robots = [_Body(n) for n in s.robots]
+        self.targets = [_Body(n) for n in s.targets]
+        self._pose_readers = [
+            (body, self.node.subscription(s.pose_topic(body.name), msgs.PoseStamped, pose_qos))
+            for body in self.robots + self.targets
+        ]
+        self._obs_reader = self.node.subscription(
+            OBSERVATION_TOPIC, msgs.TeamObservation, lockstep_qos() if s.lockstep else default_qos()
+        )
+        command_type = msgs.FullState if s.command == "full_state" else msgs.Twist
+        self._command_writers = [
+            self.node.publisher(s.command_topic(name), command_type, out_qos) for name in s.robots
+        ]
+        self._belief_writer = self.node.publisher(BELIEF_TOPIC, msgs.MarkerArray, default_qos(1))
+        self._pending: deque[msgs.TeamObservation] = deque()
+
+    # ------------------------------------------------------------------ loop
+
+    def run(
+        self,
+        stop: threading.Event | None = None,
+        progress: Callable[[int], object] | None = None,
+    ) -> EpisodeResult:
+        """Step the team on every observation until the scenario's steps are done.
+
+        Returns early, with the steps recorded so far, when ``stop`` is set or when no
+        observation came for ``give_up`` seconds.
+        """
+        s = self.settings
+        started = time.perf_counter()
+        last_obs = time.monotonic()
+        last_hold = -np.inf
+        while self.steps_done < self.scenario.steps and not (stop is not None and stop.is_set()):
+            self.node.wait(min(self.dt, 0.05))
+            now = time.monotonic()
+            self._drain(now)
+            if self._pending:
+                last_obs = now
+                if self._process_next(now) and progress is not None:
+                    progress(1)
+                continue
+            silent = now - last_obs
+            if silent > s.give_up:
+                log.warning("no observation for %.1f s: giving up", silent)
+                break
+            if silent > s.observation_timeout and now - last_hold >= self.dt:
+                self.hold(f"no observation for {silent:.1f} s (is the world node running?)")
+                last_hold = now
+        wall = time.perf_counter() - started
+        manifest = episode_manifest(self.scenario, self.seed, self.policy, self.steps_done, wall)
+        manifest["transport"] = {
+            "kind": "ros2-dds",
+            "lockstep": s.lockstep,
+            "command": s.command,
+            "holds": self.holds,
+            "dropped_messages": self.dropped,
+        }
+        return self.recorder.result(manifest)
+
+    def _drain(self, now: float) -> None:
+        for body, reader in self._pose_readers:
+            for msg in take(reader):
+                self._record(f"/{body.name}/pose", msg)
+                try:
+                    body.add(msg, now)
+                except MessageError as err:
+                    self._drop(err)
+        for msg in take(self._obs_reader):
+            self._record(OBSERVATION_TOPIC, msg)
+            self._pending.append(msg)
+
+    def _process_next(self, now: float) -> bool:
+        """Use the next observation; returns whether a step was taken."""
+        if self.settings.lockstep:
+            while self._pending and self._pending[0].step < self.steps_done:
+                self._pending.popleft()  # a repeat of a step already taken
+            if not self._pending:
+                return False
+            msg = self._pending[0]
+            key = stamp_ns(msg.header.stamp)
+            if not all(key in b.by_stamp for b in self.robots + self.targets):
+                return False  # its poses are still on their way
+            self._pending.popleft()
+            positions = np.array([b.by_stamp[key] for b in self.robots])
+            truth_xy = np.array([b.by_stamp[key] for b in self.targets])
+        else:
+            while len(self._pending) > 1:
+                self._pending.popleft()  # running late: only the newest observation counts
+            msg = self._pending.popleft()
+            stale = [
+                b.name
+                for b in self.robots
+                if b.latest is None or now - b.received_at > self.settings.pose_timeout
+            ]
+            if stale:
+                self.hold(f"stale pose of {', '.join(stale)}")
+                return False
+            positions = np.array([b.latest for b in self.robots])
+            truth_xy = np.array(
+                [b.latest if b.latest is not None else [np.nan, np.nan] for b in self.targets]
+            )
+        return self._step(msg, positions, truth_xy)
+
+    def _step(self, msg: msgs.TeamObservation, positions: np.ndarray, truth_xy: np.ndarray) -> bool:
+        try:
+            obs = observation_from_msg(msg, positions, len(self.targets))
+        except MessageError as err:
+            self._drop(err)
+            return False
+        try:
+            out = self.team.step(obs)
+        except Exception as err:  # a planner that fails must not stop the robots' safety
+            log.warning("step %d: team step failed (%s: %s)", obs.step, type(err).__name__, err)
+            self.hold("team step failed")
+            return False
+        ws = self.scenario.workspace
+        applied = clip_velocities(
+            obs.positions, out.controls, self.u_max, ws.lower, ws.upper, self.dt
+        )
+        if not np.isfinite(applied).all():
+            self.hold(f"step {obs.step}: non-finite command")
+            return False
+        self._publish_commands(positions, applied, msg.header.stamp)
+        truth = np.concatenate([truth_xy, np.zeros_like(truth_xy)], axis=1)  # positions only
+        self.recorder.observation(obs)
+        self.recorder.step(obs, out, applied, truth, self.team)
+        header = msgs.Header(stamp=msg.header.stamp, frame_id=self.settings.frame)
+        markers = belief_markers(
+            self.team.belief, positions, out.decision.modes, header, self.settings.altitude
+        )
+        self._belief_writer.write(markers)
+        self._record(BELIEF_TOPIC, markers)
+        self.steps_done += 1
+        return True
+
+    # ------------------------------------------------------------------ commands
+
+    def _publish_commands(
+        self, positions: np.ndarray, velocities: np.ndarray, stamp: msgs.Time
+    ) -> None:
+        s = self.settings
+        for i, writer in enumerate(self._command_writers):
+            command: msgs.FullState | msgs.Twist
+            if s.command == "full_state":
+                command = full_state(
+                    positions[i], velocities[i], s.altitude, self.dt, stamp, s.frame
+                )
+            else:
+                command = twist(velocities[i])
+            writer.write(command)
+            self._record(s.command_topic(s.robots[i]), command)
+
+    def hold(self, reason: str) -> None:
+        """Command every robot to stay where it was last seen, and say why."""
+        self.holds += 1
+        log.warning("holding position: %s", reason)
+        positions = [b.latest for b in self.robots]
+        stamp = stamp_from_ns(time.time_ns())
+        s = self.settings
+        for i, writer in enumerate(self._command_writers):
+            if s.command == "full_state":
+                if positions[i] is None:
+                    continue  # never seen: no position to hold
+                command: msgs.FullState | msgs.Twist = full_state(
+                    positions[i], np.zeros(2), s.altitude, self.dt, stamp, s.frame
+                )
+            else:
+                command = twist(np.zeros(2))
+            writer.write(command)
+            self._record(s.command_topic(s.robots[i]), command)
+
+    def _drop(self, err: MessageError) -> None:
+        self.dropped += 1
+        log.warning("dropped a malformed message: %s", err)
+
+    def _record(self, topic: str, msg: msgs.IdlStruct) -> None:
+        if self.bag is not None:
+            self.bag.write(topic, msg, time.time_ns())

@@ -1,0 +1,143 @@
+"""DDS transport with ROS 2's naming and QoS: what lets a ``cyclonedds`` node join a ROS 2 graph.
+
+ROS 2 maps a topic ``/cf1/pose`` to the DDS topic ``rt/cf1/pose`` and uses the DDS domain in
+``ROS_DOMAIN_ID`` (0 by default). QoS profiles follow ROS 2's: ``default`` is reliable, volatile,
+keep last 10 (what Crazyswarm2's server subscribes with); ``sensor_data`` is best effort, keep
+last 5, which also accepts reliable publishers; ``lockstep`` is reliable and transient-local so a
+sample written before the other side was discovered still arrives.
+
+CycloneDDS reads its configuration (network interface, discovery) from ``CYCLONEDDS_URI``;
+:func:`loopback_config` gives one that keeps all traffic on 127.0.0.1 (tests, one machine).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any
+
+from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.pub import DataWriter
+from cyclonedds.qos import Policy, Qos
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+#: Plain CDR (XCDR1), the representation ROS 2's rmw layers use.
+_CDR = Policy.DataRepresentation(use_cdrv0_representation=True)
+
+
+def dds_topic(ros_topic: str) -> str:
+    """``/cf1/pose`` or ``cf1/pose`` → ``rt/cf1/pose``: ROS 2's DDS name of a topic."""
+    name = ros_topic.strip("/")
+    if not name or "//" in name or any(c.isspace() for c in name):
+        raise ValueError(f"topic name {ros_topic!r}: not a valid ROS 2 topic name")
+    return f"rt/{name}"
+
+
+def default_qos(depth: int = 10) -> Qos:
+    return Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(depth),
+        _CDR,
+    )
+
+
+def sensor_data_qos(depth: int = 5) -> Qos:
+    return Qos(
+        Policy.Reliability.BestEffort,
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(depth),
+        _CDR,
+    )
+
+
+def lockstep_qos(depth: int = 64) -> Qos:
+    return Qos(
+        Policy.Reliability.Reliable(duration(seconds=5)),
+        Policy.Durability.TransientLocal,
+        Policy.History.KeepLast(depth),
+        _CDR,
+    )
+
+
+def loopback_config() -> str:
+    """A CycloneDDS configuration that keeps discovery and data on the loopback interface."""
+    return (
+        "<CycloneDDS><Domain Id='any'><General>"
+        "<Interfaces><NetworkInterface address='127.0.0.1'/></Interfaces>"
+        "<AllowMulticast>false</AllowMulticast></General>"
+        "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>50"
+        "</MaxAutoParticipantIndex><Peers><Peer address='127.0.0.1'/></Peers></Discovery>"
+        "</Domain></CycloneDDS>"
+    )
+
+
+def domain_from_env(domain_id: int | None) -> int:
+    """The DDS domain: the one given, else ``ROS_DOMAIN_ID``, else 0 (as ROS 2 does)."""
+    if domain_id is not None:
+        return domain_id
+    raw = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    if not raw:
+        return 0
+    if not raw.isdigit() or int(raw) > 232:
+        raise ValueError(f"ROS_DOMAIN_ID: {raw!r} is not a domain id (0-232)")
+    return int(raw)
+
+
+class DdsNode:
+    """One DDS participant with ROS 2-named topics, and a wait set over all its readers."""
+
+    def __init__(self, domain_id: int | None = None):
+        self.participant = DomainParticipant(domain_from_env(domain_id))
+        self._topics: dict[str, Topic] = {}
+        self._waitset = WaitSet(self.participant)
+        self.readers: list[DataReader] = []
+        self.writers: list[DataWriter] = []
+
+    def _topic(self, ros_topic: str, msg_type: type[IdlStruct]) -> Topic:
+        name = dds_topic(ros_topic)
+        if name not in self._topics:
+            self._topics[name] = Topic(self.participant, name, msg_type)
+        return self._topics[name]
+
+    def publisher(self, ros_topic: str, msg_type: type[IdlStruct], qos: Qos) -> DataWriter:
+        writer = DataWriter(self.participant, self._topic(ros_topic, msg_type), qos=qos)
+        self.writers.append(writer)
+        return writer
+
+    def subscription(self, ros_topic: str, msg_type: type[IdlStruct], qos: Qos) -> DataReader:
+        reader = DataReader(self.participant, self._topic(ros_topic, msg_type), qos=qos)
+        condition = ReadCondition(reader, SampleState.NotRead | ViewState.Any | InstanceState.Any)
+        self._waitset.attach(condition)
+        self.readers.append(reader)
+        return reader
+
+    def wait(self, timeout_s: float) -> None:
+        """Block until some reader has unread data or ``timeout_s`` passes."""
+        self._waitset.wait(duration(seconds=max(timeout_s, 0.0)))
+
+    def wait_matched(
+        self, writers: list[DataWriter], readers: list[DataReader], timeout_s: float
+    ) -> bool:
+        """Wait until every writer has a matched reader and every reader a matched writer."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            ok = all(w.get_publication_matched_status().current_count > 0 for w in writers) and all(
+                r.get_subscription_matched_status().current_count > 0 for r in readers
+            )
+            if ok or time.monotonic() >= deadline:
+                return ok
+            time.sleep(0.02)
+
+
+def take(reader: DataReader, limit: int = 256) -> list[Any]:
+    """All samples waiting in ``reader`` (valid data only), oldest first."""
+    return [
+        s
+        for s in reader.take(N=limit)
+        if getattr(s, "sample_info", None) is None or s.sample_info.valid_data
+    ]
