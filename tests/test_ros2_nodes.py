@@ -1,0 +1,235 @@
+"""The tracker and world nodes over DDS on the loopback interface (no ROS 2 install needed).
+
+Every test uses its own DDS domain and CycloneDDS restricted to 127.0.0.1, so parallel runs do
+not hear each other; every process a test starts is killed and reaped before it ends.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import logging
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from rosbags.rosbag2 import Reader
+
+from conftest import SCENARIOS, shipped
+from resilient_tracking import cli
+from resilient_tracking.ros2 import msgs
+from resilient_tracking.ros2.bag import typestore
+from resilient_tracking.ros2.convert import observation_to_msg, pose_stamped, step_stamp
+from resilient_tracking.ros2.topics import OBSERVATION_TOPIC, NodeSettings
+from resilient_tracking.ros2.tracker_node import TrackerNode
+from resilient_tracking.ros2.transport import DdsNode, default_qos, loopback_config, take
+from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.records import TABLES
+from resilient_tracking.world import World
+
+ROOT = Path(__file__).resolve().parents[1]
+_domains = itertools.count()
+
+
+@pytest.fixture
+def domain(monkeypatch: pytest.MonkeyPatch) -> int:
+    """A DDS domain of this test alone, on loopback (also for DDS used inside the test)."""
+    monkeypatch.setenv("CYCLONEDDS_URI", loopback_config())
+    return 1 + (os.getpid() * 7 + next(_domains)) % 230
+
+
+@pytest.fixture
+def spawn(tmp_path: Path, domain: int) -> Iterator:
+    """Start ``rtrack`` commands; all of them are killed and reaped when the test ends."""
+    started: list[subprocess.Popen[bytes]] = []
+
+    def start(name: str, *args: str) -> subprocess.Popen[bytes]:
+        log = open(tmp_path / f"{name}.log", "wb")  # noqa: SIM115 - closed with the process
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "resilient_tracking.cli", *args, "--domain", str(domain), "-q"],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, "CYCLONEDDS_URI": loopback_config()},
+            cwd=tmp_path,
+        )
+        log.close()
+        started.append(proc)
+        return proc
+
+    yield start
+    for proc in started:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=30)
+
+
+def _hash(df: pd.DataFrame) -> bytes:
+    return (
+        pd.util.hash_pandas_object(df, index=True).to_numpy().tobytes()
+        + repr(list(df.dtypes.items())).encode()
+    )
+
+
+def test_lockstep_run_between_two_processes_equals_rtrack_run(spawn, tmp_path: Path) -> None:
+    scenario = str(SCENARIOS / "sensing-temp.yaml")
+    world = spawn("world", "world", scenario, "--seed", "3", "--lockstep")
+    node = spawn("node", "node", scenario, "--seed", "3", "--lockstep", "--out", "N", "--bag", "B")
+    assert node.wait(timeout=120) == 0, (tmp_path / "node.log").read_text()
+    assert world.wait(timeout=30) == 0, (tmp_path / "world.log").read_text()
+    reference = run_episode(shipped("sensing-temp"), seed=3)
+    for name in TABLES:
+        over_dds = pd.read_parquet(tmp_path / "N" / f"{name}.parquet")
+        assert _hash(over_dds) == _hash(reference[name]), name
+    # the bag holds what travelled, decodable with ROS 2's definitions
+    store = typestore()
+    with Reader(tmp_path / "B") as bag:
+        counts = {c.topic: c.msgcount for c in bag.connections}
+        assert counts["/cf1/cmd_full_state"] == 300
+        assert counts["/rtrack/observation"] == 300
+        assert counts["/rtrack/belief"] == 300
+        conn = next(c for c in bag.connections if c.topic == "/cf2/cmd_full_state")
+        first = next(bag.messages(connections=[conn]))
+        cmd = store.deserialize_cdr(first[2], conn.msgtype)
+    robots = reference["robots"]
+    ux0 = robots[(robots.step == 0) & (robots.robot == 1)].ux.item()
+    assert cmd.twist.linear.x == ux0
+    assert cmd.pose.position.z == 0.5
+
+
+def test_world_exiting_mid_run_makes_the_tracker_hold(spawn, tmp_path: Path, domain) -> None:
+    scenario = str(SCENARIOS / "sensing-temp.yaml")
+    listener = DdsNode(domain)
+    commands = listener.subscription("/cf1/cmd_full_state", msgs.FullState, default_qos(100))
+    world = spawn("world", "world", scenario)
+    node = spawn("node", "node", scenario, "--out", "N", "--observation-timeout", "0.3")
+    received: list[msgs.FullState] = []
+
+    def collect(seconds: float, until: int | None = None) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end and (until is None or len(received) < until):
+            listener.wait(0.1)
+            received.extend(take(commands))
+
+    collect(60, until=10)  # free running at 10 Hz: a second of commands
+    assert len(received) >= 10, (tmp_path / "node.log").read_text()
+    world.kill()
+    world.wait(timeout=10)
+    flying = len(received)
+    collect(2.0)
+    holds = received[flying:]
+    assert holds and all(c.twist.linear.x == 0.0 and c.twist.linear.y == 0.0 for c in holds[-3:])
+    last = holds[-1].pose.position
+    assert np.isfinite([last.x, last.y]).all() and last.z == 0.5
+    node.send_signal(signal.SIGTERM)
+    assert node.wait(timeout=30) == 3  # stopped before the scenario's steps were done
+    log = (tmp_path / "node.log").read_text()
+    assert "holding position: no observation" in log
+    steps = len(pd.read_parquet(tmp_path / "N" / "team.parquet"))
+    assert 0 < steps < 300
+
+
+class _InProcess:
+    """A free-running tracker node in a thread, fed by hand-written messages."""
+
+    def __init__(self, domain: int):
+        self.scenario = shipped("sensing-temp")
+        settings = NodeSettings.for_scenario(
+            self.scenario, domain_id=domain, pose_timeout=5.0, observation_timeout=60.0
+        )
+        self.settings = settings
+        self.node = TrackerNode(self.scenario, 1, "failure_aware", settings)
+        self.feed = DdsNode(domain)
+        self.poses = {
+            n: self.feed.publisher(settings.pose_topic(n), msgs.PoseStamped, default_qos())
+            for n in settings.robots + settings.targets
+        }
+        self.obs = self.feed.publisher(OBSERVATION_TOPIC, msgs.TeamObservation, default_qos())
+        self.world = World(self.scenario, 1)
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self.node.run, kwargs={"stop": self.stop})
+
+    def __enter__(self) -> _InProcess:
+        readers = self.node.node.readers
+        assert self.feed.wait_matched(self.feed.writers, [], 10.0)
+        assert all(r.get_subscription_matched_status().current_count for r in readers)
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop.set()
+        self.thread.join(timeout=10)
+        assert not self.thread.is_alive()
+
+    def send_poses(self, names: list[str], xy: np.ndarray | None = None) -> None:
+        stamp = step_stamp(0, 0.1)
+        for i, name in enumerate(names):
+            point = self.world.robot_positions[i % 3] if xy is None else xy
+            self.poses[name].write(pose_stamped(point, 0.5, stamp, "world"))
+
+    def send_observation(self, **change: object) -> None:
+        msg = observation_to_msg(self.world.observe(), step_stamp(0, 0.1), "world")
+        self.obs.write(dataclasses.replace(msg, **change))
+
+    def wait_for(self, condition, seconds: float = 10.0) -> bool:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            if condition():
+                return True
+            time.sleep(0.02)
+        return False
+
+
+def test_stale_pose_holds_instead_of_stepping(domain, caplog) -> None:
+    caplog.set_level(logging.WARNING)
+    with _InProcess(domain) as run:
+        run.send_poses(["cf1", "cf2", "target1", "target2", "target3"])  # cf3 never reported
+        time.sleep(0.3)
+        run.send_observation()
+        assert run.wait_for(lambda: run.node.holds > 0)
+        assert run.node.steps_done == 0
+        run.send_poses(["cf3"])
+        time.sleep(0.3)
+        run.send_observation()
+        assert run.wait_for(lambda: run.node.steps_done == 1)
+    assert "holding position: stale pose of cf3" in caplog.text
+
+
+def test_malformed_messages_are_dropped_with_the_field_named(domain, caplog) -> None:
+    caplog.set_level(logging.WARNING)
+    with _InProcess(domain) as run:
+        run.send_poses(run.settings.robots + run.settings.targets)
+        run.poses["cf2"].write(
+            pose_stamped(np.array([np.nan, 0.0]), 0.5, step_stamp(0, 0.1), "world")
+        )
+        time.sleep(0.3)
+        run.send_observation(measurements=[1.0] * 5)
+        assert run.wait_for(lambda: run.node.dropped == 2)
+        assert run.node.steps_done == 0
+        run.send_observation()
+        assert run.wait_for(lambda: run.node.steps_done == 1)
+    assert "/cf2/pose: pose.position is not finite" in caplog.text
+    assert "observation.measurements: expected 18 values, got 5" in caplog.text
+
+
+def test_without_the_extra_the_verbs_say_how_to_install_it(monkeypatch, capsys) -> None:
+    monkeypatch.setitem(sys.modules, "cyclonedds", None)  # import fails as if not installed
+    for verb in ("node", "world"):
+        assert cli.main([verb, str(SCENARIOS / "sensing-temp.yaml")]) == 1
+        assert 'pip install "resilient-tracking[ros2]"' in capsys.readouterr().err
+
+
+def test_base_package_does_not_import_dds() -> None:
+    code = (
+        "import sys, resilient_tracking.cli, resilient_tracking.sim.episode;"
+        "from resilient_tracking.cli import build_parser; build_parser();"
+        "assert 'cyclonedds' not in sys.modules and 'rosbags' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
