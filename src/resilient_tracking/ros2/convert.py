@@ -115,7 +115,7 @@ def observation_from_msg(
             f"observation.n_robots/n_targets: expected {m}x{n_targets}, "
             f"got {msg.n_robots}x{msg.n_targets}"
         )
-    z = np.array(_sized(msg.measurements, m * n_targets * 2, "measurements"), dtype=float)
+    z = np.array(_sized(msg.measurements, m * n_targets * 2, "measurements"), dtype=np.float64)
     if np.isinf(z).any():
         raise MessageError("observation.measurements: infinite value (NaN marks 'not measured')")
     attacks = []
@@ -152,11 +152,11 @@ def observation_from_msg(
         time=float(msg.time),
         positions=np.array(positions, dtype=float),
         measurements=z.reshape(m, n_targets, 2),
-        sensing_ok=np.array(_sized(msg.sensing_ok, m, "sensing_ok"), dtype=bool),
-        comm_ok=np.array(_sized(msg.comm_ok, m, "comm_ok"), dtype=bool),
+        sensing_ok=np.array(_sized(msg.sensing_ok, m, "sensing_ok"), dtype=np.bool_),
+        comm_ok=np.array(_sized(msg.comm_ok, m, "comm_ok"), dtype=np.bool_),
         sensing_persistence=tuple(sensing_p),
         comm_persistence=tuple(comm_p),
-        links=np.array(_sized(msg.links, m * m, "links"), dtype=bool).reshape(m, m),
+        links=np.array(_sized(msg.links, m * m, "links"), dtype=np.bool_).reshape(m, m),
         attacks=tuple(attacks),
         recoveries=tuple(recoveries),  # type: ignore[arg-type]
     )

@@ -13,10 +13,22 @@ interface package to ``ros2 topic echo`` them (``docs/robots.md``).
 """
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final
-from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint8, uint32
+from cyclonedds.idl.types import array, float32, float64, int32, uint8, uint32
+
+if TYPE_CHECKING:  # type checkers see IDL sequences and fixed arrays as lists
+    from builtins import list as sequence
+
+    Float64x2 = list[float]
+    Float64x4 = list[float]
+else:
+    from cyclonedds.idl.types import sequence
+
+    Float64x2 = array[float64, 2]
+    Float64x4 = array[float64, 4]
 
 
 def _dds(name: str) -> str:
@@ -192,8 +204,8 @@ class ZoneAttack(IdlStruct, typename=_dds("resilient_tracking_msgs/msg/ZoneAttac
     robot: uint32 = 0
     zone_id: uint32 = 0
     kind: str = ""
-    mu: array[float64, 2] = field(default_factory=lambda: [0.0, 0.0])
-    sigma: array[float64, 4] = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
+    mu: Float64x2 = field(default_factory=lambda: [0.0, 0.0])
+    sigma: Float64x4 = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
     size: float64 = 0.0
     persistence: str = ""
     cause: str = ""

@@ -23,6 +23,7 @@ from collections import OrderedDict, deque
 from collections.abc import Callable
 
 import numpy as np
+from cyclonedds.idl import IdlStruct
 
 from resilient_tracking.ros2 import msgs
 from resilient_tracking.ros2.bag import BagRecorder
@@ -261,11 +262,12 @@ class TrackerNode:
         stamp = stamp_from_ns(time.time_ns())
         s = self.settings
         for i, writer in enumerate(self._command_writers):
+            xy = positions[i]
             if s.command == "full_state":
-                if positions[i] is None:
+                if xy is None:
                     continue  # never seen: no position to hold
                 command: msgs.FullState | msgs.Twist = full_state(
-                    positions[i], np.zeros(2), s.altitude, self.dt, stamp, s.frame
+                    xy, np.zeros(2), s.altitude, self.dt, stamp, s.frame
                 )
             else:
                 command = twist(np.zeros(2))
@@ -276,6 +278,6 @@ class TrackerNode:
         self.dropped += 1
         log.warning("dropped a malformed message: %s", err)
 
-    def _record(self, topic: str, msg: msgs.IdlStruct) -> None:
+    def _record(self, topic: str, msg: IdlStruct) -> None:
         if self.bag is not None:
             self.bag.write(topic, msg, time.time_ns())
