@@ -20,15 +20,13 @@ from typing import Any
 
 import yaml
 
+from resilient_tracking import scenarios
 from resilient_tracking.scenario import Scenario, parse_scenario
 
 
 def default_scenario_dir() -> Path:
-    """``./scenarios`` when run from a checkout, else the checkout this package sits in."""
-    here = Path.cwd() / "scenarios"
-    if (here / "bench-risk.yaml").exists():
-        return here
-    return Path(__file__).resolve().parents[3] / "scenarios"
+    """The shipped scenarios (package data, found from any working directory)."""
+    return scenarios.folder()
 
 
 #: Risk levels of the comparison with SOG (SPEC §5): ours ε1 and SOG ρ2 per level.
@@ -55,7 +53,7 @@ class Variant:
 @dataclass(frozen=True)
 class Experiment:
     name: str
-    scenario: str  # file name under scenarios/, without .yaml
+    scenario: str  # name of a shipped scenario (``resilient_tracking.scenarios``)
     variants: tuple[Variant, ...]
     seeds: int
     description: str = ""
