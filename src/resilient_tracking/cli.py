@@ -206,7 +206,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
-        "reproduce", help="run the paper's experiments (SPEC §6), resumable, and write report.md"
+        "reproduce",
+        help="run the paper's experiments (docs/model.md §8), resumable, and write report.md",
     )
     p.add_argument("names", nargs="*", default=["all"], help="experiment names, or all")
     p.add_argument("--out", default="results", help="sweep folder (default: results)")

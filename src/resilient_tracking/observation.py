@@ -18,7 +18,7 @@ Persistence = Literal["temporary", "permanent"]
 
 @dataclass(frozen=True)
 class ZoneClue:
-    """What the victim of an attack learns: the attacking zone's prior (SPEC §2)."""
+    """What the victim of an attack learns: the attacking zone's prior (docs/model.md §3)."""
 
     zone_id: int
     kind: FailureKind

@@ -151,7 +151,7 @@ class EstimatorSpec(Strict):
 
 
 class GaussianHazard(Strict):
-    """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (SPEC §1.1)."""
+    """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (docs/model.md §2)."""
 
     model: Literal["gaussian"]
     f_act: PositiveFloat = 1.0
@@ -215,7 +215,7 @@ Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]
 
 
 class VanillaParams(Strict):
-    """Fixed weights (SPEC §5 Vanilla): tracking trace and control effort."""
+    """Fixed weights (docs/model.md §7.1): tracking trace and control effort."""
 
     w_track: PositiveFloat = 50.0
     w_effort: PositiveFloat = 0.05
@@ -279,7 +279,7 @@ class SogSlackWeights(Strict):
 
 class SogParams(Strict):
     """Risk-aware SOG baseline after Mayya et al. (RA-L 2022), rebuilt from its published
-    description (SPEC §5); see ``policies/sog.py``."""
+    description (docs/model.md §7); see ``policies/sog.py``."""
 
     #: tracking requirement ``tr P⁺_j ≤ ρ1`` per target (m², position block)
     rho1: PositiveFloat = 0.01

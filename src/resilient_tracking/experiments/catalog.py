@@ -1,4 +1,4 @@
-"""The paper's experiments (SPEC §6) as data: scenario, variants, seeds.
+"""The paper's experiments (docs/model.md §8) as data: scenario, variants, seeds.
 
 An :class:`Experiment` names a shipped scenario file and the variants to run on it. A
 :class:`Variant` is a policy plus overrides of the scenario file by dotted path
@@ -29,7 +29,7 @@ def default_scenario_dir() -> Path:
     return scenarios.folder()
 
 
-#: Risk levels of the comparison with SOG (SPEC §5): ours ε1 and SOG ρ2 per level.
+#: Risk levels of the comparison with SOG (docs/model.md §7): ours ε1 and SOG ρ2 per level.
 RISK_LEVELS: dict[str, tuple[float, float]] = {
     "risky": (0.05, 0.6),
     "regular": (0.02, 0.3),
@@ -80,9 +80,14 @@ class Task:
     @property
     def fingerprint(self) -> str:
         """Hash of everything that determines the run's tables; a stored run with another
-        fingerprint is stale and is run again."""
+        fingerprint is stale and is run again. The free-text ``description`` is left out:
+        rewording it changes no result."""
         text = json.dumps(
-            [self.scenario.model_dump(mode="json"), self.variant.policy, self.seed],
+            [
+                self.scenario.model_dump(mode="json", exclude={"description"}),
+                self.variant.policy,
+                self.seed,
+            ],
             sort_keys=True,
         )
         return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -163,7 +168,7 @@ SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp"
 
 
 def catalog(quick: bool = False) -> dict[str, Experiment]:
-    """Every experiment of SPEC §6 by name; ``quick`` is the CI-sized version."""
+    """Every experiment of docs/model.md §8 by name; ``quick`` is the CI-sized version."""
     experiments = [_pair(name, 2 if quick else 10) for name in SIX]
     experiments += [
         Experiment(

@@ -100,7 +100,7 @@ def _figures(exp: Experiment, runs: dict[str, list[RunData]], summary: pd.DataFr
 def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[str, list[Claim]]:
     """Summarise, draw and check one experiment; returns its markdown and claims."""
     done = [t for t in tasks if is_done(out, t)]
-    header = f"## {exp.name}\n\n{exp.description}. Scenario `scenarios/{exp.scenario}.yaml`."
+    header = f"## {exp.name}\n\n{exp.description}. Shipped scenario `{exp.scenario}`."
     if not done:
         return header + "\n\nNo finished runs.\n", []
     runs: dict[str, list[RunData]] = defaultdict(list)

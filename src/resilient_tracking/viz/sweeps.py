@@ -1,4 +1,4 @@
-"""Figures over many saved runs (SPEC §6): snapshots, mean ± 1 std bands, box plots.
+"""Figures over many saved runs (docs/model.md §8): snapshots, mean ± 1 std bands, box plots.
 
 Inputs are :class:`~resilient_tracking.viz.io.RunData` read from run folders and the summary
 table built from them, never objects of a live simulation.
