@@ -115,3 +115,11 @@ def test_compare_reports_a_bad_override_without_a_traceback(tmp_path, capsys):
     assert code == 1
     assert "dt:" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_dask_logs_are_quiet_without_verbose(tmp_path, capfd):
+    argv = ["compare", "sensing-temp", "--seeds", "1", "--policies", "vanilla", "--set"]
+    argv += ["steps=5", "--dask", "local", "--jobs", "1", "--out", str(tmp_path / "d"), "-q"]
+    assert main(argv) == 0
+    err = capfd.readouterr().err
+    assert "INFO" not in err, err

@@ -167,14 +167,26 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_animate(args: argparse.Namespace) -> int:
-    from resilient_tracking.viz.animate import animate_run
+    from resilient_tracking.viz.animate import animate_run, ffmpeg_path
 
+    passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
     try:
-        written = animate_run(args.run_dir, args.out, frames=args.frames, fps=args.fps)
+        with tqdm(
+            total=max(2, args.frames) * passes, desc="animate", unit="frame", disable=args.quiet
+        ) as bar:
+            written = animate_run(
+                args.run_dir,
+                args.out,
+                frames=args.frames,
+                fps=args.fps,
+                progress=lambda n: bar.update(n),
+            )
     except (FileNotFoundError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
     print("wrote " + ", ".join(str(p) for p in written))
+    if len(written) == 1:
+        print("no MP4: no ffmpeg found; pip install 'resilient-tracking[video]' for one")
     return 0
 
 
@@ -258,11 +270,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_compare, argv=None)
 
-    p = sub.add_parser("animate", help="write a GIF (and MP4 with ffmpeg) of a run folder")
+    p = sub.add_parser(
+        "animate", help="write a GIF and an MP4 (system ffmpeg or imageio-ffmpeg) of a run folder"
+    )
     p.add_argument("run_dir")
     p.add_argument("--out", default=None, help="GIF path (default: RUN_DIR/figures/animation.gif)")
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--fps", type=int, default=10)
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_animate)
     return parser
 
@@ -276,6 +291,10 @@ def main(argv: list[str] | None = None) -> int:
         args.argv = given[given.index("reproduce") + 1 :]
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    if args.verbose == 0:
+        # Dask's scheduler and workers (child processes too) log at INFO by default
+        os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
+        logging.getLogger("distributed").setLevel(logging.WARNING)
     return int(args.func(args))
 
 

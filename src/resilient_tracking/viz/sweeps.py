@@ -17,13 +17,15 @@ from matplotlib.figure import Figure
 
 from resilient_tracking.viz.curves import wants_log_scale
 from resilient_tracking.viz.io import RunData
-from resilient_tracking.viz.trajectories import DPI, plot_trajectory_map
+from resilient_tracking.viz.trajectories import plot_trajectory_map
 
 log = logging.getLogger(__name__)
 
 #: Curves of the band figures: team-table column, axis label.
 BAND_METRICS = (("mse", "MSE [m²]"), ("trace", "Σ tr P [m²]"))
 EFFORT_METRIC = (("effort", "effort Σ‖u‖ [m/s]"),)
+#: Resolution of sweep figures: reports hold dozens of them, so lighter than a run's figures.
+SWEEP_DPI = 100
 #: Box colours of the policies, in the order given.
 POLICY_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
 
@@ -31,7 +33,7 @@ POLICY_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
 def _save(fig: Figure, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    fig.savefig(path, dpi=SWEEP_DPI, bbox_inches="tight")
     log.info("wrote %s", path)
     return path
 
