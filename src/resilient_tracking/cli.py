@@ -199,11 +199,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("validate", help="check scenario files, report every problem")
-    p.add_argument("scenario", nargs="+")
+    p.add_argument("scenario", nargs="+", help="scenario files or shipped scenario names")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("run", help="run one episode and write tables and figures")
-    p.add_argument("scenario")
+    p.add_argument("scenario", help="a scenario file or a shipped scenario name (sensing-temp)")
     p.add_argument("--seed", type=int, default=None, help="episode seed (default: the file's)")
     p.add_argument("--out", default=None, help="run folder (default: runs/NAME-POLICY-seedS)")
     p.add_argument(
