@@ -125,7 +125,9 @@ def plot_scale_boxes(summary: pd.DataFrame, path: Path, metric: str = "trace") -
             rows = summary[(summary["targets"] == t) & (summary["tag_method"] == method)]
             data = [rows.loc[rows["robots"] == r, metric].to_numpy() for r in robots]
             positions = np.arange(len(robots)) + (m - (len(methods) - 1) / 2) * width
-            box = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True)
+            box = ax.boxplot(
+                data, positions=positions, widths=width * 0.9, patch_artist=True, showfliers=False
+            )
             for patch in box["boxes"]:
                 patch.set_facecolor(colors[m % len(colors)])
                 patch.set_alpha(0.5)
@@ -143,7 +145,8 @@ def plot_scale_boxes(summary: pd.DataFrame, path: Path, metric: str = "trace") -
 
 
 def _overlay_points(ax, positions, data, color: str) -> None:
-    """Every seed as a dot over its box, so that a box of one or two seeds still shows them."""
+    """Every seed as a dot over its box (the boxes draw no outliers of their own), so that a
+    box of one or two seeds still shows them."""
     for x, values in zip(positions, data, strict=True):
         offsets = np.linspace(-0.08, 0.08, len(values)) if len(values) > 1 else np.zeros(1)
         ax.plot(
@@ -163,7 +166,7 @@ def plot_policy_boxes(
     for ax, metric in zip(axes, metrics, strict=True):
         data = [runs.loc[runs["policy"] == p, metric].to_numpy(dtype=float) for p in policies]
         positions = np.arange(len(policies), dtype=float)
-        box = ax.boxplot(data, positions=positions, widths=0.6, patch_artist=True)
+        box = ax.boxplot(data, positions=positions, widths=0.6, patch_artist=True, showfliers=False)
         for patch, color in zip(box["boxes"], POLICY_COLORS, strict=False):
             patch.set_facecolor(color)
             patch.set_alpha(0.4)
