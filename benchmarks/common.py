@@ -12,12 +12,13 @@ from typing import Any
 import casadi
 import numpy as np
 
+from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import SIX
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 IMAGES = ROOT / "docs" / "images"
-SCENARIOS = ROOT / "scenarios"
+SCENARIOS = scenarios.folder()
 SHIPPED = SIX  # the paper's six scenarios
 
 

@@ -1,6 +1,6 @@
 """The naive reference: the league NLP as a user would write it with CasADi ``Opti``.
 
-Written from SPEC §4 directly (it does not reuse the package's problem code, so it also
+Written from docs/model.md §5 directly (it does not reuse the package's problem code, so it also
 cross-checks it): numbers are baked into the expressions, the problem is rebuilt every step,
 and IPOPT solves it from a cold start with its default settings.
 """

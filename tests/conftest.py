@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
+from resilient_tracking import scenarios
 from resilient_tracking.scenario import Scenario, load_scenario
 
 #: Hypothesis profiles for tests that do not fix their own number of examples (the hostile-input
@@ -20,11 +21,11 @@ settings.register_profile(
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = ROOT / "scenarios"
+SCENARIOS = scenarios.folder()
 
 
 def shipped(name: str) -> Scenario:
-    return load_scenario(SCENARIOS / f"{name}.yaml")
+    return load_scenario(scenarios.path(name))
 
 
 @pytest.fixture

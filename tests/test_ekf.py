@@ -1,4 +1,4 @@
-"""EKF over NCV targets with range-bearing robots (SPEC §3): correctness and consistency."""
+"""EKF over NCV targets with range-bearing robots (docs/model.md §4): correctness, consistency."""
 
 from __future__ import annotations
 

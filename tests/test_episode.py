@@ -73,7 +73,7 @@ def test_records_have_the_documented_shape():
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_vanilla_in_sensing_perm_every_robot_attacked_then_trace_explodes(seed):
-    """SPEC §6 / paper Fig. 4: the vanilla team is immobilised and its trace explodes."""
+    """docs/model.md §8 / paper Fig. 4: the vanilla team is immobilised and its trace explodes."""
     result = run_episode(shipped("sensing-perm"), policy="vanilla", seed=seed)
     events, team, robots = result["events"], result["team"], result["robots"]
     attacks = events[events.event == "attack"]

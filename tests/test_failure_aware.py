@@ -1,4 +1,4 @@
-"""Scenario-level behaviour of the failure-aware policy (paper Alg. 1–4, SPEC §4.1)."""
+"""Scenario-level behaviour of the failure-aware policy (paper Alg. 1–4, docs/model.md §6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Covariance intersection (SPEC §3): weights, optimality, consistency, per-target fusion."""
+"""Covariance intersection (docs/model.md §4): weights, optimality, consistency, per target."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Hazard models and the failure process (SPEC §1.1).
+"""Hazard models and the failure process (docs/model.md §2).
 
 Empirical attack rates through ``World`` are compared with the formulas using binomial bounds
 (4 sigma). Robots are held still outside the recovery ball, so every temporary hit recovers on

@@ -1,4 +1,4 @@
-"""Jamming rule, link graph and leagues on hand-made geometries (SPEC §1, paper eq. 4)."""
+"""Jamming rule, link graph and leagues on hand-made geometries (docs/model.md §1, paper eq. 4)."""
 
 from __future__ import annotations
 

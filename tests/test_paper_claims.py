@@ -1,4 +1,4 @@
-"""The paper's headline claim on the six shipped scenarios over ten seeds, as in SPEC §6.
+"""The paper's headline claim on the six shipped scenarios over ten seeds, as in docs/model.md §8.
 
 Ten, not five: in `comm-perm` one seed of five (seed 2) lets vanilla's best cut-off robot
 report a low trace with an MSE three times the failure-aware team's, which decides a

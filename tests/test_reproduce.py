@@ -113,6 +113,7 @@ def test_report_has_a_table_figures_and_claims_for_each_experiment(tmp_path):
     report = write_report([TINY], {"tiny": todo}, tmp_path, "test").read_text()
     assert "## tiny" in report and "| vanilla | 2 |" in report and "| failure_aware | 2 |" in report
     assert "adaptive < vanilla in time-averaged trace" in report
+    assert "`a ± b` is the mean over seeds" in report and "indicative" not in report
     for line in report.splitlines():
         if line.startswith("!["):
             assert (tmp_path / line.split("(")[1].rstrip(")")).stat().st_size > 10_000
@@ -166,6 +167,9 @@ def test_animate_writes_a_gif_of_a_run(tmp_path, capsys):
         main(["animate", str(run_dir(tmp_path, todo[0])), "--out", str(gif), "--frames", "4"]) == 0
     )
     assert gif.read_bytes()[:3] == b"GIF"
+    mp4 = gif.with_suffix(".mp4")
+    assert mp4.stat().st_size > 0  # a system ffmpeg, or imageio-ffmpeg from the test extra
+    assert f"wrote {gif}, {mp4}" in capsys.readouterr().out
     assert main(["animate", str(tmp_path / "missing")]) == 1
     assert "does not exist" in capsys.readouterr().err
 
@@ -188,7 +192,10 @@ def quick_claims(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("quick")
     assert main(["reproduce", "all", "--quick", "--out", str(out), "--jobs", "2", "-q"]) == 0
-    assert (out / "report.md").exists()
+    report = (out / "report.md").read_text()
+    # two seeds instead of ten: every claim says it is indicative, and on how many seeds
+    assert "**Claims** *(indicative: 2 of the protocol's 10 seeds)*" in report
+    assert "Indicative only" in report.splitlines()[4]
     claims = {}
     for name, exp in full_catalog(quick=True).items():
         rows = [summarise_run(load_run(run_dir(out, t))) for t in tasks(exp)]

@@ -1,4 +1,4 @@
-"""RangeBearingSensor: Jacobian, noise model and sampled noise statistics (SPEC §1 "Sensors")."""
+"""RangeBearingSensor: Jacobian, noise model and sampled noise statistics (docs/model.md §1)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The risk-aware SOG baseline (SPEC §5, a reconstruction of Mayya et al., RA-L 2022)."""
+"""The risk-aware SOG baseline (docs/model.md §7, a reconstruction of Mayya et al., RA-L 2022)."""
 
 from __future__ import annotations
 
@@ -101,7 +101,7 @@ def test_phi_rises_toward_a_known_zone_centre_and_is_zero_without_knowledge():
 
 
 def test_phi_over_one_step_is_the_worlds_gaussian_hazard_at_the_estimate():
-    """SPEC §1.1: ``1 − exp(−κ f_act dt pdf)``; φ is that hazard with ``c = κ f_act T``."""
+    """docs/model.md §2: ``1 − exp(−κ f_act dt pdf)``; φ is that hazard with ``c = κ f_act T``."""
     hazard = GaussianHazardModel(MU, SIGMA, f_act=1.0, kappa=2.0)
     x = np.array([[0.0, 0.0], [0.5, -0.4], [1.2, 0.9]])
     np.testing.assert_allclose(

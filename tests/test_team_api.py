@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from conftest import shipped
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
@@ -47,8 +48,8 @@ def test_team_turns_observations_into_bounded_commands_toward_the_targets():
 
 def test_an_attack_clue_becomes_league_knowledge_and_a_constraint():
     s = shipped("sensing-perm")
-    targets = np.array([[0.0, 0.0]])
-    team = Team.from_scenario(s, np.array([[0.0, 0.0, 0.0, 0.0]]))
+    targets = np.zeros((3, 2))  # all three on the zone's mean
+    team = Team.from_scenario(s, np.zeros((3, 4)))
     positions = np.array([[-0.8, 0.3], [-1.5, 0.0], [-1.5, -0.6]])
     links = ~np.eye(3, dtype=bool)
     clue = ZoneClue(
@@ -68,3 +69,69 @@ def test_an_attack_clue_becomes_league_knowledge_and_a_constraint():
         out = team.step(observation(k, positions, targets, sensing, links))
         positions = positions + 0.1 * out.controls
     assert np.linalg.norm(positions[1:], axis=1).min() > 0.8
+
+
+def test_lists_are_accepted_and_every_event_of_the_tick_is_returned():
+    s = shipped("sensing-perm")
+    team = Team.from_scenario(s, [[1.0, 1.0], [1.5, 0.5], [1.0, 0.0]])  # positions only
+    clue = ZoneClue(0, "sensing", np.zeros(2), 0.3 * np.eye(2), 0.5, "permanent")
+    obs = TeamObservation(
+        step=0,
+        time=0.0,
+        positions=[[-0.8, 0.3], [-1.5, 0.0], [-1.5, -0.6]],
+        measurements=np.full((3, 3, 2), np.nan).tolist(),
+        sensing_ok=[False, True, True],
+        comm_ok=[True, True, True],
+        sensing_persistence=["permanent", "", ""],
+        comm_persistence=["", "", ""],
+        links=[[False, True, True], [True, False, True], [True, True, False]],
+        attacks=[Attack(0, clue)],
+    )
+    out = team.step(obs)
+    kinds = [e.event for e in out.events]
+    assert kinds[0] == "attack" and out.events[0].robot == 0
+    learned = [e for e in out.events if e.event == "zone_learned"]
+    assert {e.robot for e in learned} == {0, 1, 2}  # the victim's clue, then the broadcast
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"positions": np.zeros((3, 3))}, "TeamObservation.positions"),
+        ({"measurements": np.zeros((3, 2, 2))}, "TeamObservation.measurements"),
+        ({"measurements": np.zeros((2, 3, 2))}, "TeamObservation.measurements"),
+        ({"sensing_ok": [True, True]}, "TeamObservation.sensing_ok"),
+        ({"comm_persistence": ("", "")}, "TeamObservation.comm_persistence"),
+        ({"sensing_persistence": ("", "forever", "")}, "TeamObservation.sensing_persistence"),
+        ({"links": np.eye(3, dtype=bool)[:2]}, "TeamObservation.links"),
+        ({"links": np.triu(np.ones((3, 3), bool))}, "TeamObservation.links"),
+        ({"recoveries": [(5, "sensing")]}, "TeamObservation.recoveries"),
+    ],
+)
+def test_bad_observations_name_the_field(change, field):
+    s = shipped("sensing-perm")
+    team = Team.from_scenario(s, np.zeros((3, 4)))
+    base = observation(
+        0, np.zeros((3, 2)), np.ones((3, 2)), np.ones(3, bool), ~np.eye(3, dtype=bool)
+    )
+    fields = {**base.__dict__, **change}
+    with pytest.raises(ValueError, match=field.replace(".", r"\.")):
+        team.step(TeamObservation(**fields))
+
+
+def test_initial_means_of_the_wrong_size_are_named():
+    s = shipped("sensing-perm")  # three targets
+    with pytest.raises(ValueError, match="initial_means: the scenario has 3 targets, got 4"):
+        Team.from_scenario(s, np.zeros((4, 4)))
+    with pytest.raises(ValueError, match=r"initial_means: expected shape"):
+        Team.from_scenario(s, np.zeros((3, 3)))
+
+
+def test_an_observation_with_other_targets_than_the_team_is_named():
+    s = shipped("sensing-perm")
+    team = Team.from_scenario(s, np.zeros((3, 4)))
+    obs = observation(
+        0, np.zeros((3, 2)), np.ones((2, 2)), np.ones(3, bool), ~np.eye(3, dtype=bool)
+    )
+    with pytest.raises(ValueError, match="TeamObservation.measurements: the team tracks 3"):
+        team.step(obs)

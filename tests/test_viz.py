@@ -303,3 +303,17 @@ def test_wants_log_scale() -> None:
     assert not wants_log_scale([0.5, 1.0, 40.0])
     assert not wants_log_scale([0.0, 0.0, 1.0])  # non-positive values ignored
     assert not wants_log_scale([np.nan, 1.0])
+
+
+def test_sixty_four_robots_get_sixty_four_distinct_colours():
+    from matplotlib.colors import to_rgb
+
+    from resilient_tracking.scenario import MAX_ROBOTS
+    from resilient_tracking.viz.trajectories import COMM_COLOR, SENSING_COLOR, robot_color
+
+    colors = np.array([to_rgb(robot_color(i)) for i in range(MAX_ROBOTS)])
+    gaps = np.linalg.norm(colors[:, None] - colors[None], axis=-1) + 9 * np.eye(MAX_ROBOTS)
+    assert gaps.min() > 0.15  # no two robots look alike
+    for reserved in (SENSING_COLOR, COMM_COLOR):  # red and cyan keep their meanings
+        assert np.linalg.norm(colors - np.array(to_rgb(reserved)), axis=1).min() > 0.15
+    assert robot_color(0) == "tab:blue"  # the first ten are unchanged

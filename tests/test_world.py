@@ -1,4 +1,4 @@
-"""World truth: zone centers, random streams, controls, targets, measurement noise (SPEC §1)."""
+"""World truth: zone centers, random streams, controls, targets, noise (docs/model.md §1)."""
 
 from __future__ import annotations
 

@@ -19,18 +19,18 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 import pandas as pd
 import yaml
 from calibration_table import seed_range  # sibling script: tools/ is on sys.path when run
 from joblib import Parallel, delayed
 
+from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import set_path
 from resilient_tracking.experiments.compare import summarise
 from resilient_tracking.scenario import parse_scenario
 
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+SCENARIOS = scenarios.folder()
 
 
 def main() -> None:

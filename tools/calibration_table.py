@@ -14,12 +14,12 @@ seeds where the failure-aware policy's time-averaged trace is below the vanilla 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from resilient_tracking import scenarios
 from resilient_tracking.experiments.compare import compare
 
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+SCENARIOS = scenarios.folder()
 
 
 def seed_range(text: str) -> list[int]:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from resilient_tracking import scenarios
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import TABLES
@@ -59,7 +60,7 @@ def paper_program(scenario: Scenario) -> Scenario:
 def fingerprints(runs: list[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:
     out: dict[str, dict[str, str]] = {}
     for name, policy in runs:
-        scenario = paper_program(load_scenario(ROOT / "scenarios" / f"{name}.yaml"))
+        scenario = paper_program(load_scenario(scenarios.path(name)))
         result = run_episode(scenario, policy=policy, seed=SEED)
         out[f"{name}/{policy}"] = {t: table_hash(result.tables[t]) for t in TABLES}
     return out

@@ -11,12 +11,15 @@ from pathlib import Path
 from tqdm import tqdm
 
 from resilient_tracking import __version__
-from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError, load_scenario
+from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError
 
 
 def _load(path: str) -> Scenario | None:
+    """A scenario given by file path or shipped name, or None after printing why not."""
+    from resilient_tracking import scenarios
+
     try:
-        return load_scenario(path)
+        return scenarios.load(path)
     except ScenarioError as err:
         print(f"error: {err}", file=sys.stderr)
         return None
@@ -132,15 +135,58 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_animate(args: argparse.Namespace) -> int:
-    from resilient_tracking.viz.animate import animate_run
+def cmd_compare(args: argparse.Namespace) -> int:
+    from resilient_tracking.experiments.comparison import (
+        make_study,
+        parse_override,
+        write_compare_report,
+    )
+    from resilient_tracking.experiments.sweep import run_sweep
 
+    if args.jobs < 1:
+        print("error: --jobs: must be at least 1", file=sys.stderr)
+        return 1
     try:
-        written = animate_run(args.run_dir, args.out, frames=args.frames, fps=args.fps)
+        overrides = [parse_override(text) for text in args.set]
+        policies = [p.strip() for p in args.policies.split(",") if p.strip()]
+        study = make_study(args.scenario, policies, args.seeds, overrides)
+        tasks = study.tasks()
+    except (ScenarioError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    out = Path(args.out)
+    with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
+        ran = run_sweep(
+            tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: bar.update(1)
+        )
+    given = list(sys.argv[1:] if args.argv is None else args.argv)
+    command = " ".join(["rtrack compare", *given[given.index("compare") + 1 :]])
+    report = write_compare_report(study, tasks, out, command)
+    print(f"{len(ran)} run(s) done, {len(tasks) - len(ran)} already stored; wrote {report}")
+    return 0
+
+
+def cmd_animate(args: argparse.Namespace) -> int:
+    from resilient_tracking.viz.animate import animate_run, ffmpeg_path
+
+    passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
+    try:
+        with tqdm(
+            total=max(2, args.frames) * passes, desc="animate", unit="frame", disable=args.quiet
+        ) as bar:
+            written = animate_run(
+                args.run_dir,
+                args.out,
+                frames=args.frames,
+                fps=args.fps,
+                progress=lambda n: bar.update(n),
+            )
     except (FileNotFoundError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
     print("wrote " + ", ".join(str(p) for p in written))
+    if len(written) == 1:
+        print("no MP4: no ffmpeg found; pip install 'resilient-tracking[video]' for one")
     return 0
 
 
@@ -294,11 +340,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("validate", help="check scenario files, report every problem")
-    p.add_argument("scenario", nargs="+")
+    p.add_argument("scenario", nargs="+", help="scenario files or shipped scenario names")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("run", help="run one episode and write tables and figures")
-    p.add_argument("scenario")
+    p.add_argument("scenario", help="a scenario file or a shipped scenario name (sensing-temp)")
     p.add_argument("--seed", type=int, default=None, help="episode seed (default: the file's)")
     p.add_argument("--out", default=None, help="run folder (default: runs/NAME-POLICY-seedS)")
     p.add_argument(
@@ -313,7 +359,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
-        "reproduce", help="run the paper's experiments (SPEC §6), resumable, and write report.md"
+        "reproduce",
+        help="run the paper's experiments (docs/model.md §8), resumable, and write report.md",
     )
     p.add_argument("names", nargs="*", default=["all"], help="experiment names, or all")
     p.add_argument("--out", default="results", help="sweep folder (default: results)")
@@ -331,11 +378,47 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_reproduce, argv=[])
 
-    p = sub.add_parser("animate", help="write a GIF (and MP4 with ffmpeg) of a run folder")
+    p = sub.add_parser(
+        "compare",
+        help="compare policies over seeds on scenarios, resumable, and write report.md",
+        description="Run every policy on every scenario for seeds 1..N (stored runs are reused), "
+        "then write OUT/report.md: mean and 95%% confidence interval per metric, paired win "
+        "counts, bands, box plots and snapshots (docs/compare.md).",
+    )
+    p.add_argument("scenario", nargs="+", help="scenario files or shipped scenario names")
+    p.add_argument(
+        "--policies",
+        default="failure_aware,vanilla",
+        help=f"comma-separated, from {', '.join(POLICY_NAMES)} (default: failure_aware,vanilla)",
+    )
+    p.add_argument("--seeds", type=int, default=5, help="seeds 1..N per policy (default: 5)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PATH=VALUE",
+        help="override a scenario field by dotted path, e.g. policy.failure_aware.eps1=0.05 "
+        "(repeatable; applied to every scenario)",
+    )
+    p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="local worker processes")
+    p.add_argument(
+        "--dask",
+        default=None,
+        metavar="ADDRESS",
+        help="run on a Dask scheduler at ADDRESS ('local' starts a LocalCluster)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_compare, argv=None)
+
+    p = sub.add_parser(
+        "animate", help="write a GIF and an MP4 (system ffmpeg or imageio-ffmpeg) of a run folder"
+    )
     p.add_argument("run_dir")
     p.add_argument("--out", default=None, help="GIF path (default: RUN_DIR/figures/animation.gif)")
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--fps", type=int, default=10)
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_animate)
     _add_ros2_parsers(sub)
     return parser
@@ -343,11 +426,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if getattr(args, "func", None) is cmd_compare:
+        args.argv = argv
     if getattr(args, "func", None) is cmd_reproduce:
         given = list(sys.argv[1:] if argv is None else argv)
         args.argv = given[given.index("reproduce") + 1 :]
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    if args.verbose == 0:
+        # Dask's scheduler and workers (child processes too) log at INFO by default
+        os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
+        logging.getLogger("distributed").setLevel(logging.WARNING)
     return int(args.func(args))
 
 

@@ -18,7 +18,7 @@ Persistence = Literal["temporary", "permanent"]
 
 @dataclass(frozen=True)
 class ZoneClue:
-    """What the victim of an attack learns: the attacking zone's prior (SPEC §2)."""
+    """What the victim of an attack learns: the attacking zone's prior (docs/model.md §3)."""
 
     zone_id: int
     kind: FailureKind
@@ -64,6 +64,89 @@ class TeamObservation:
     #: robots that recovered since the previous tick: (robot, kind)
     recoveries: tuple[tuple[int, FailureKind], ...] = field(default_factory=tuple)
 
+    def __post_init__(self) -> None:
+        """Accept lists where arrays are expected; check every shape against the robot count
+        ``M`` of ``positions``, naming the field (``ValueError``)."""
+        set_ = object.__setattr__
+        positions = _array("positions", self.positions, float)
+        if positions.ndim != 2 or positions.shape[1] != 2:
+            raise ValueError(
+                f"TeamObservation.positions: expected shape (M, 2), got {positions.shape}"
+            )
+        m = positions.shape[0]
+        if m < 1:
+            raise ValueError("TeamObservation.positions: at least one robot is needed")
+        if not np.all(np.isfinite(positions)):
+            raise ValueError("TeamObservation.positions: must be finite")
+        set_(self, "positions", positions)
+        measurements = _array("measurements", self.measurements, float)
+        if measurements.ndim != 3 or measurements.shape[0] != m or measurements.shape[2] != 2:
+            raise ValueError(
+                f"TeamObservation.measurements: expected shape (M={m}, N, 2) of "
+                f"[range, bearing], got {measurements.shape}"
+            )
+        set_(self, "measurements", measurements)
+        for name in ("sensing_ok", "comm_ok"):
+            flags = _array(name, getattr(self, name), bool)
+            if flags.shape != (m,):
+                raise ValueError(
+                    f"TeamObservation.{name}: expected shape (M={m},), got {flags.shape}"
+                )
+            set_(self, name, flags)
+        for name in ("sensing_persistence", "comm_persistence"):
+            values = tuple(getattr(self, name))
+            if len(values) != m:
+                raise ValueError(f"TeamObservation.{name}: expected {m} entries, got {len(values)}")
+            bad = [v for v in values if v not in ("", "temporary", "permanent")]
+            if bad:
+                raise ValueError(
+                    f"TeamObservation.{name}: entries must be '', 'temporary' or 'permanent' "
+                    f"(got {bad[0]!r})"
+                )
+            set_(self, name, values)
+        links = _array("links", self.links, bool)
+        if links.shape != (m, m):
+            raise ValueError(
+                f"TeamObservation.links: expected shape (M={m}, M={m}), got {links.shape}"
+            )
+        if not np.array_equal(links, links.T):
+            raise ValueError("TeamObservation.links: must be symmetric (a link works both ways)")
+        set_(self, "links", links)
+        attacks = tuple(self.attacks)
+        for a in attacks:
+            if not isinstance(a, Attack) or not 0 <= a.robot < m:
+                raise ValueError(
+                    f"TeamObservation.attacks: each must be an Attack on a robot in 0..{m - 1} "
+                    f"(got {a!r})"
+                )
+        set_(self, "attacks", attacks)
+        recoveries = tuple((r[0], r[1]) for r in self.recoveries)
+        for r in recoveries:
+            if not (isinstance(r[0], int | np.integer) and 0 <= r[0] < m) or r[1] not in (
+                "sensing",
+                "comm",
+            ):
+                raise ValueError(
+                    f"TeamObservation.recoveries: each must be (robot in 0..{m - 1}, "
+                    f"'sensing' or 'comm') (got {r!r})"
+                )
+        set_(self, "recoveries", recoveries)
+
     @property
     def n_robots(self) -> int:
         return int(self.positions.shape[0])
+
+    @property
+    def n_targets(self) -> int:
+        return int(self.measurements.shape[1])
+
+
+def _array(name: str, value: object, dtype: type) -> np.ndarray:
+    """``value`` as an array of ``dtype`` (lists accepted), or a ``ValueError`` naming it."""
+    try:
+        out: np.ndarray = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError) as err:
+        raise ValueError(
+            f"TeamObservation.{name}: not an array of {dtype.__name__} ({err})"
+        ) from None
+    return out

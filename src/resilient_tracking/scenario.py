@@ -60,10 +60,16 @@ class Strict(BaseModel):
 class Workspace(Strict):
     """Axis-aligned box the robots stay in (metres)."""
 
-    xmin: float = -5.0
-    xmax: float = 5.0
-    ymin: float = -5.0
-    ymax: float = 5.0
+    xmin: float = Field(-5.0, description="Left edge of the box.", json_schema_extra={"unit": "m"})
+    xmax: float = Field(
+        5.0, description="Right edge; must exceed xmin.", json_schema_extra={"unit": "m"}
+    )
+    ymin: float = Field(
+        -5.0, description="Bottom edge of the box.", json_schema_extra={"unit": "m"}
+    )
+    ymax: float = Field(
+        5.0, description="Top edge; must exceed ymin.", json_schema_extra={"unit": "m"}
+    )
 
     def contains(self, p: Vec2) -> bool:
         return self.xmin <= p[0] <= self.xmax and self.ymin <= p[1] <= self.ymax
@@ -81,36 +87,76 @@ class Workspace(Strict):
 
 
 class RobotSpec(Strict):
-    start: Vec2
-    u_max: PositiveFloat = 1.0
+    start: Vec2 = Field(
+        ..., description="Initial position, inside the workspace.", json_schema_extra={"unit": "m"}
+    )
+    u_max: PositiveFloat = Field(
+        1.0,
+        description="Bound on each velocity component: |u_x|, |u_y| ≤ u_max.",
+        json_schema_extra={"unit": "m/s"},
+    )
 
 
 class ConstantVelocity(Strict):
-    type: Literal["constant_velocity"]
-    velocity: Vec2
+    type: Literal["constant_velocity"] = Field(description="Selects this motion.")
+    velocity: Vec2 = Field(
+        ..., description="Constant velocity [v_x, v_y].", json_schema_extra={"unit": "m/s"}
+    )
 
 
 class Waypoints(Strict):
-    type: Literal["waypoints"]
-    points: list[Vec2] = Field(min_length=1)
-    speed: PositiveFloat
-    loop: bool = False
+    type: Literal["waypoints"] = Field(description="Selects this motion.")
+    points: list[Vec2] = Field(
+        min_length=1,
+        description="Visited in order along straight segments, starting from start.",
+        json_schema_extra={"unit": "m"},
+    )
+    speed: PositiveFloat = Field(
+        ..., description="Constant speed along the path.", json_schema_extra={"unit": "m/s"}
+    )
+    loop: bool = Field(
+        False,
+        description=(
+            "After the last point, head back to the first and repeat; otherwise stop at the last "
+            "point."
+        ),
+    )
 
 
 class Circle(Strict):
     """Circle around ``center`` through the start point; positive ``angular_speed`` is CCW."""
 
-    type: Literal["circle"]
-    center: Vec2
-    angular_speed: float
+    type: Literal["circle"] = Field(description="Selects this motion.")
+    center: Vec2 = Field(
+        ...,
+        description=(
+            "Center of the circle; the radius is the distance from start, which must not be 0."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    angular_speed: float = Field(
+        ...,
+        description="Positive: counter-clockwise, negative: clockwise, 0: still.",
+        json_schema_extra={"unit": "rad/s"},
+    )
 
 
 class NoisyConstantVelocity(Strict):
     """Nearly-constant-velocity truth: white acceleration noise of ``accel_std`` per axis."""
 
-    type: Literal["ncv"]
-    velocity: Vec2 = (0.0, 0.0)
-    accel_std: float = Field(0.1, ge=0)
+    type: Literal["ncv"] = Field(description="Selects this motion.")
+    velocity: Vec2 = Field(
+        (0.0, 0.0), description="Initial velocity.", json_schema_extra={"unit": "m/s"}
+    )
+    accel_std: float = Field(
+        0.1,
+        ge=0,
+        description=(
+            "Standard deviation of the white acceleration noise per axis; 0 gives constant "
+            "velocity."
+        ),
+        json_schema_extra={"unit": "m/s²"},
+    )
 
 
 TargetMotion = Annotated[
@@ -119,8 +165,12 @@ TargetMotion = Annotated[
 
 
 class TargetSpec(Strict):
-    start: Vec2
-    motion: TargetMotion
+    start: Vec2 = Field(
+        ...,
+        description="Initial true position, inside the workspace.",
+        json_schema_extra={"unit": "m"},
+    )
+    motion: TargetMotion = Field(..., description="Scripted true motion, selected by its type.")
 
 
 # ---------------------------------------------------------------------------- sensing, estimation
@@ -129,41 +179,80 @@ class TargetSpec(Strict):
 class SensorChannel(Strict):
     """One channel: inverse variance ``peak · exp(−shape · d)``."""
 
-    peak: PositiveFloat = 15.0
-    shape: float = Field(0.2, ge=0)
+    peak: PositiveFloat = Field(
+        15.0,
+        description="Inverse variance at distance 0 (m⁻² for range, rad⁻² for bearing).",
+        json_schema_extra={"unit": "1/variance"},
+    )
+    shape: float = Field(
+        0.2,
+        ge=0,
+        description="Decay rate of the information with distance; 0: independent of distance.",
+        json_schema_extra={"unit": "1/m"},
+    )
 
 
 class SensorSpec(Strict):
-    range: SensorChannel = SensorChannel()
-    bearing: SensorChannel = SensorChannel()
-    max_range: PositiveFloat | None = None
+    range: SensorChannel = Field(SensorChannel(), description="Noise of the range measurement.")
+    bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
+    max_range: PositiveFloat | None = Field(
+        None,
+        description="Targets farther than this are not measured; null: no limit.",
+        json_schema_extra={"unit": "m"},
+    )
 
 
 class EstimatorSpec(Strict):
     """The robots' target model (nearly constant velocity) and initial uncertainty."""
 
-    accel_std: float = Field(0.2, gt=0)
-    initial_position_std: PositiveFloat = 0.5
-    initial_velocity_std: PositiveFloat = 0.3
+    accel_std: float = Field(
+        0.2,
+        gt=0,
+        description="White-acceleration noise of the EKF's process model, per axis.",
+        json_schema_extra={"unit": "m/s²"},
+    )
+    initial_position_std: PositiveFloat = Field(
+        0.5,
+        description=(
+            "Initial position uncertainty per axis (the initial estimate is drawn with it)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    initial_velocity_std: PositiveFloat = Field(
+        0.3, description="Initial velocity uncertainty per axis.", json_schema_extra={"unit": "m/s"}
+    )
 
 
 # ---------------------------------------------------------------------------- danger zones
 
 
 class GaussianHazard(Strict):
-    """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (SPEC §1.1)."""
+    """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (docs/model.md §2)."""
 
-    model: Literal["gaussian"]
-    f_act: PositiveFloat = 1.0
-    kappa: PositiveFloat = 1.0
+    model: Literal["gaussian"] = Field(description="Selects this hazard model.")
+    f_act: PositiveFloat = Field(
+        1.0, description="Activation frequency of the zone.", json_schema_extra={"unit": "Hz"}
+    )
+    kappa: PositiveFloat = Field(
+        1.0,
+        description="Intensity κ, multiplying a density in m⁻².",
+        json_schema_extra={"unit": "m²"},
+    )
 
 
 class DiskHazard(Strict):
     """Hit with probability ``p_hit`` at each activation tick while inside the true disk."""
 
-    model: Literal["disk"]
-    f_act: PositiveFloat = 1.0
-    p_hit: float = Field(0.5, ge=0, le=1)
+    model: Literal["disk"] = Field(description="Selects this hazard model.")
+    f_act: PositiveFloat = Field(
+        1.0, description="Activation frequency of the zone.", json_schema_extra={"unit": "Hz"}
+    )
+    p_hit: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Hit probability per activation tick while inside the true disk.",
+    )
 
 
 Hazard = Annotated[GaussianHazard | DiskHazard, Field(discriminator="model")]
@@ -188,24 +277,62 @@ def _check_covariance(value: Matrix2) -> Matrix2:
 
 
 class ZoneBase(Strict):
-    name: str | None = None
-    mu: Vec2
-    sigma: Matrix2
-    persistence: Literal["temporary", "permanent"] = "temporary"
-    hazard: Hazard = GaussianHazard(model="gaussian")
-    m_recover: PositiveFloat = 2.0
+    name: str | None = Field(None, description="Label for plots and logs.")
+    mu: Vec2 = Field(
+        ..., description="Prior mean μ of the zone center.", json_schema_extra={"unit": "m"}
+    )
+    sigma: Matrix2 = Field(
+        ...,
+        description=(
+            "Prior covariance Σ of the zone center: symmetric, positive definite, not nearly "
+            "singular."
+        ),
+        json_schema_extra={"unit": "m²"},
+    )
+    persistence: Literal["temporary", "permanent"] = Field(
+        "temporary",
+        description=(
+            "What a hazard attack from this zone does: a temporary failure ends once the robot "
+            "leaves the influence region; a permanent one never ends."
+        ),
+    )
+    hazard: Hazard = Field(
+        GaussianHazard(model="gaussian"),
+        description="How attacks are drawn, selected by its model.",
+    )
+    m_recover: PositiveFloat = Field(
+        2.0,
+        description=(
+            "Size of the influence region (x − μ)ᵀ Σ⁻¹ (x − μ) ≤ m_recover², out of which a "
+            "temporary failure ends."
+        ),
+        json_schema_extra={"unit": "Mahalanobis"},
+    )
 
     _sigma_ok = field_validator("sigma")(_check_covariance)
 
 
 class SensingZone(ZoneBase):
-    kind: Literal["sensing"]
-    radius: PositiveFloat
+    kind: Literal["sensing"] = Field(description="An attack disables the robot's sensor.")
+    radius: PositiveFloat = Field(
+        ...,
+        description="Radius r of the zone's disk around its true center.",
+        json_schema_extra={"unit": "m"},
+    )
 
 
 class CommZone(ZoneBase):
-    kind: Literal["comm"]
-    delta2: PositiveFloat
+    kind: Literal["comm"] = Field(
+        description="An attack disables the robot's radio; the zone also jams links."
+    )
+    delta2: PositiveFloat = Field(
+        ...,
+        description=(
+            "Jammer strength δ2: a link is cut when a robot is within δ2 times the link length of"
+            " the true center."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
 
 
 Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]
@@ -215,96 +342,233 @@ Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]
 
 
 class VanillaParams(Strict):
-    """Fixed weights (SPEC §5 Vanilla): tracking trace and control effort."""
+    """Fixed weights (docs/model.md §7.1): tracking trace and control effort."""
 
-    w_track: PositiveFloat = 50.0
-    w_effort: PositiveFloat = 0.05
+    w_track: PositiveFloat = Field(
+        50.0, description="Weight w1 on the predicted tracking uncertainty Σ_j tr P⁺_j."
+    )
+    w_effort: PositiveFloat = Field(0.05, description="Weight w2 on the control effort Σ_i ‖u_i‖².")
 
 
 class WeightSet(Strict):
     """One extreme of the adaptive weights (paper eq. 10): ``w1..w4`` and the clearance ``w5``."""
 
-    track: float = Field(ge=0)
-    effort: PositiveFloat
-    sensing_slack: float = Field(ge=0)
-    comm_slack: float = Field(ge=0)
-    clearance: float = Field(0.0, ge=0)
+    track: float = Field(ge=0, description="w1: weight on the tracking term Σ_j tr P⁺_j.")
+    effort: PositiveFloat = Field(..., description="w2: weight on the control effort Σ_i ‖u_i‖².")
+    sensing_slack: float = Field(
+        ge=0, description="w3: penalty on the slacks of the sensing-zone chance constraints."
+    )
+    comm_slack: float = Field(
+        ge=0, description="w4: penalty on the slacks of the comm-zone chance constraints."
+    )
+    clearance: float = Field(
+        0.0,
+        ge=0,
+        description="w5: clearance added to a sensing zone radius, r_safe = r + w5.",
+        json_schema_extra={"unit": "m"},
+    )
 
 
 class CircleFitParams(Strict):
     """Gates of EstimateCircleParameters (Alg. 3): when an observed path counts as a circle."""
 
-    window: int = Field(40, ge=5, le=10_000)
-    min_samples: int = Field(20, ge=5)
-    min_arc: float = Field(2.5, gt=0, le=6.2832)
-    max_residual: float = Field(0.08, gt=0)
-    min_radius: PositiveFloat = 0.2
-    max_radius: PositiveFloat = 5.0
-    silent_steps: int = Field(8, ge=1)
+    window: int = Field(
+        40,
+        ge=5,
+        le=10_000,
+        description="Last observed positions of a silent robot used in the fit.",
+        json_schema_extra={"unit": "steps"},
+    )
+    min_samples: int = Field(
+        20,
+        ge=5,
+        description="Fewest positions before a fit is accepted.",
+        json_schema_extra={"unit": "steps"},
+    )
+    min_arc: float = Field(
+        2.5,
+        gt=0,
+        le=6.2832,
+        description="Smallest arc of the circle the positions must cover.",
+        json_schema_extra={"unit": "rad"},
+    )
+    max_residual: float = Field(
+        0.08,
+        gt=0,
+        description="Largest RMS radial residual of an accepted fit.",
+        json_schema_extra={"unit": "m"},
+    )
+    min_radius: PositiveFloat = Field(
+        0.2, description="Smallest plausible circle radius.", json_schema_extra={"unit": "m"}
+    )
+    max_radius: PositiveFloat = Field(
+        5.0, description="Largest plausible circle radius.", json_schema_extra={"unit": "m"}
+    )
+    silent_steps: int = Field(
+        8,
+        ge=1,
+        description="Steps without any working link before a teammate is watched.",
+        json_schema_extra={"unit": "steps"},
+    )
 
 
 class FailureAwareParams(Strict):
     """Algorithm 1 with adaptive weights, cool-down, circular evasion and circle inference."""
 
-    risky: WeightSet = WeightSet(track=50, effort=0.05, sensing_slack=200, comm_slack=100)
-    safe: WeightSet = WeightSet(
-        track=45, effort=0.05, sensing_slack=2000, comm_slack=500, clearance=0.4
+    risky: WeightSet = Field(
+        WeightSet(track=50, effort=0.05, sensing_slack=200, comm_slack=100),
+        description="Weights with no robot under attack (eq. 10, w_risky).",
     )
-    cooldown: WeightSet = WeightSet(
-        track=40, effort=0.05, sensing_slack=4000, comm_slack=1000, clearance=0.6
+    safe: WeightSet = Field(
+        WeightSet(track=45, effort=0.05, sensing_slack=2000, comm_slack=500, clearance=0.4),
+        description=(
+            "Weights with every robot under attack (eq. 10, w_safe); isolated robots use them."
+        ),
     )
-    cooldown_steps: int = Field(10, ge=0)
-    eps1: float = Field(0.02, gt=0, lt=0.5)
-    eps2: float = Field(0.15, gt=0, lt=0.5)
-    #: clearance (m) added around a comm zone an isolated robot escapes
-    comm_clearance: float = Field(0.5, ge=0)
-    circle_speed: float = Field(0.9, gt=0, le=1)
-    circle_margin: float = Field(0.3, ge=0)
-    circle_fit: CircleFitParams = CircleFitParams()
-    #: jamming strength assumed for a comm zone inferred from a circle (its δ2 is unseen)
-    inferred_delta2: PositiveFloat = 0.3
-    #: spread (m) of the provisional comm zone put where a teammate fell silent, until a circle
-    #: fit replaces the guess (0 turns the provisional zone off)
-    silence_std: float = Field(0.3, ge=0)
+    cooldown: WeightSet = Field(
+        WeightSet(track=40, effort=0.05, sensing_slack=4000, comm_slack=1000, clearance=0.6),
+        description="Weights of the whole team during a cool-down after a temporary failure.",
+    )
+    cooldown_steps: int = Field(
+        10,
+        ge=0,
+        description="Length of the cool-down after a temporary failure.",
+        json_schema_extra={"unit": "steps"},
+    )
+    eps1: float = Field(
+        0.02,
+        gt=0,
+        lt=0.5,
+        description=(
+            "Risk level ε1 of the sensing-zone chance constraints (smaller: more cautious)."
+        ),
+    )
+    eps2: float = Field(
+        0.15,
+        gt=0,
+        lt=0.5,
+        description="Risk level ε2 of the comm-zone chance constraints and of the evasion circle.",
+    )
+    comm_clearance: float = Field(
+        0.5,
+        ge=0,
+        description="Clearance added around a comm zone an isolated robot escapes.",
+        json_schema_extra={"unit": "m"},
+    )
+    circle_speed: float = Field(
+        0.9,
+        gt=0,
+        le=1,
+        description="Speed of circular evasion as a fraction of u_max.",
+        json_schema_extra={"unit": "fraction"},
+    )
+    circle_margin: float = Field(
+        0.3,
+        ge=0,
+        description="Margin added to the evasion circle radius.",
+        json_schema_extra={"unit": "m"},
+    )
+    circle_fit: CircleFitParams = Field(
+        CircleFitParams(),
+        description="When a silent robot's observed path counts as a circle (Alg. 3).",
+    )
+    inferred_delta2: PositiveFloat = Field(
+        0.3,
+        description=(
+            "Jammer strength assumed for a comm zone inferred from a circle (its δ2 is not seen)."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
+    silence_std: float = Field(
+        0.3,
+        ge=0,
+        description=(
+            "Spread of the provisional comm zone put where a teammate fell silent, until a circle"
+            " fit replaces it; 0 turns it off."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
 
 
 class SogSlackWeights(Strict):
     """Penalties on the SOG program's slacks at one extreme of the sensor abundance."""
 
-    #: on ``δ1j``, the excess of ``tr P⁺_j`` over ``ρ1`` (per m²)
-    track: PositiveFloat
-    #: on ``δ2i``, the excess of the failure likelihood ``φ_i`` over ``ρ2``
-    risk: PositiveFloat
+    track: PositiveFloat = Field(
+        ...,
+        description="Penalty on δ1j, the excess of tr P⁺_j over ρ1.",
+        json_schema_extra={"unit": "1/m²"},
+    )
+    risk: PositiveFloat = Field(
+        ..., description="Penalty on δ2i, the excess of the failure likelihood φ_i over ρ2."
+    )
 
 
 class SogParams(Strict):
     """Risk-aware SOG baseline after Mayya et al. (RA-L 2022), rebuilt from its published
-    description (SPEC §5); see ``policies/sog.py``."""
+    description (docs/model.md §7); see ``policies/sog.py``."""
 
-    #: tracking requirement ``tr P⁺_j ≤ ρ1`` per target (m², position block)
-    rho1: PositiveFloat = 0.01
-    #: acceptable risk ``φ_i ≤ ρ2``: risky 0.6, regular 0.3, conservative 0.2
-    rho2: float = Field(0.3, gt=0, lt=1)
-    #: weight on the control effort ``Σ_i ‖u_i‖²``
-    effort: PositiveFloat = 0.05
-    #: slack penalties with every sensor working (aggressive) …
-    abundant: SogSlackWeights = SogSlackWeights(track=100.0, risk=2.0)
-    #: … and with none left (risk-averse); geometric interpolation in between
-    scarce: SogSlackWeights = SogSlackWeights(track=5.0, risk=2000.0)
-    #: attack rate ``κ f_act`` (1/s) the team assumes for a known zone (clues do not carry it)
-    hazard_rate: PositiveFloat = 1.0
-    #: window (s) of the safety requirement: ``φ`` is the chance of an attack when staying
-    #: at ``x`` this long, about the time a target of the shipped scenarios takes to cross a zone
-    risk_window: PositiveFloat = 10.0
-    #: steps over which the SOG weighs each sensor by its survival (1: the planned step)
-    survival_steps: int = Field(1, ge=1, le=10_000)
+    rho1: PositiveFloat = Field(
+        0.01,
+        description="Tracking requirement tr P⁺_j ≤ ρ1 per target (position block).",
+        json_schema_extra={"unit": "m²"},
+    )
+    rho2: float = Field(
+        0.3,
+        gt=0,
+        lt=1,
+        description="Acceptable risk φ_i ≤ ρ2: risky 0.6, regular 0.3, conservative 0.2.",
+    )
+    effort: PositiveFloat = Field(0.05, description="Weight on the control effort Σ_i ‖u_i‖².")
+    abundant: SogSlackWeights = Field(
+        SogSlackWeights(track=100.0, risk=2.0),
+        description="Slack penalties with every sensor working (aggressive).",
+    )
+    scarce: SogSlackWeights = Field(
+        SogSlackWeights(track=5.0, risk=2000.0),
+        description=(
+            "Slack penalties with no sensor left (risk-averse); geometric interpolation in between."
+        ),
+    )
+    hazard_rate: PositiveFloat = Field(
+        1.0,
+        description=(
+            "Attack rate κ f_act the team assumes for a known zone (clues do not carry it)."
+        ),
+        json_schema_extra={"unit": "1/s"},
+    )
+    risk_window: PositiveFloat = Field(
+        10.0,
+        description=(
+            "φ is the chance of an attack when staying at x this long, about the time a target of"
+            " the shipped scenarios takes to cross a zone."
+        ),
+        json_schema_extra={"unit": "s"},
+    )
+    survival_steps: int = Field(
+        1,
+        ge=1,
+        le=10_000,
+        description=(
+            "Steps over which each sensor is weighed by its survival in the Gramian (1: the "
+            "planned step)."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
 
 
 class PolicySpec(Strict):
-    name: Literal["vanilla", "failure_aware", "sog"] = "failure_aware"
-    vanilla: VanillaParams = VanillaParams()
-    failure_aware: FailureAwareParams = FailureAwareParams()
-    sog: SogParams = SogParams()
+    name: Literal["vanilla", "failure_aware", "sog"] = Field(
+        "failure_aware", description="Policy the team uses (rtrack run --policy overrides it)."
+    )
+    vanilla: VanillaParams = Field(
+        VanillaParams(), description="Parameters of the vanilla baseline."
+    )
+    failure_aware: FailureAwareParams = Field(
+        FailureAwareParams(), description="Parameters of the failure-aware policy (Algorithm 1)."
+    )
+    sog: SogParams = Field(
+        SogParams(), description="Parameters of the SOG baseline (reconstruction)."
+    )
 
 
 POLICY_NAMES: tuple[str, ...] = ("vanilla", "failure_aware", "sog")
@@ -313,28 +577,60 @@ POLICY_NAMES: tuple[str, ...] = ("vanilla", "failure_aware", "sog")
 class PlannerSpec(Strict):
     """How league problems are solved (docs/performance.md): the fast SQP ladder or IPOPT only."""
 
-    solver: Literal["ladder", "ipopt"] = "ladder"
+    solver: Literal["ladder", "ipopt"] = Field(
+        "ladder",
+        description=(
+            "ladder: SQP warm-started from the previous step, then IPOPT warm, IPOPT cold, then "
+            "hold position; ipopt: the same without the SQP rung."
+        ),
+    )
 
 
 # ---------------------------------------------------------------------------- scenario
 
 
 class Scenario(Strict):
-    name: str = "scenario"
-    description: str = ""
-    seed: int = Field(0, ge=0)
+    name: str = Field("scenario", description="Label used in output folders and plots.")
+    description: str = Field("", description="Free text.")
+    seed: int = Field(
+        0,
+        ge=0,
+        description="Episode seed; every random draw comes from its own stream derived from it.",
+    )
     #: at most 10 s: beyond it one step moves targets out of any sensor's reach
-    dt: float = Field(0.1, gt=0, le=MAX_DT)
-    steps: int = Field(300, ge=1, le=MAX_STEPS)
-    workspace: Workspace = Workspace()
-    sensor: SensorSpec = SensorSpec()
-    estimator: EstimatorSpec = EstimatorSpec()
-    robots: list[RobotSpec] = Field(min_length=1, max_length=MAX_ROBOTS)
-    targets: list[TargetSpec] = Field(min_length=1, max_length=MAX_TARGETS)
-    zones: list[Zone] = Field(default_factory=list, max_length=MAX_ZONES)
-    comm_range: PositiveFloat | None = None
-    policy: PolicySpec = PolicySpec()
-    planner: PlannerSpec = PlannerSpec()
+    dt: float = Field(
+        0.1, gt=0, le=MAX_DT, description="Time step.", json_schema_extra={"unit": "s"}
+    )
+    steps: int = Field(
+        300,
+        ge=1,
+        le=MAX_STEPS,
+        description="Episode length (duration steps · dt).",
+        json_schema_extra={"unit": "steps"},
+    )
+    workspace: Workspace = Field(Workspace(), description="Box the robots stay in.")
+    sensor: SensorSpec = Field(SensorSpec(), description="Range/bearing sensor of every robot.")
+    estimator: EstimatorSpec = Field(
+        EstimatorSpec(), description="The robots' target model and initial uncertainty."
+    )
+    robots: list[RobotSpec] = Field(min_length=1, max_length=MAX_ROBOTS, description="The team.")
+    targets: list[TargetSpec] = Field(
+        min_length=1, max_length=MAX_TARGETS, description="The targets to track."
+    )
+    zones: list[Zone] = Field(
+        default_factory=list,
+        max_length=MAX_ZONES,
+        description="Danger zones, initially unknown to the robots, selected by kind.",
+    )
+    comm_range: PositiveFloat | None = Field(
+        None,
+        description="Robots link only within this distance; null: unlimited.",
+        json_schema_extra={"unit": "m"},
+    )
+    policy: PolicySpec = Field(
+        PolicySpec(), description="The policy the team uses and its parameters."
+    )
+    planner: PlannerSpec = Field(PlannerSpec(), description="How the league problems are solved.")
 
     def problems(self) -> list[str]:
         """Cross-field problems pydantic cannot see, each naming its field."""

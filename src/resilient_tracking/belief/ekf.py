@@ -1,4 +1,5 @@
-"""Extended Kalman filter over independent targets with range-bearing measurements (SPEC §3).
+"""Extended Kalman filter over independent targets with range-bearing measurements
+(docs/model.md §4).
 
 Prediction (paper, EKF prediction eq.): ``ŷ⁺ = A ŷ``, ``P⁺ = A P Aᵀ + Q`` per target.
 

@@ -1,4 +1,4 @@
-"""Per-target Gaussian estimates held by a league (SPEC §3).
+"""Per-target Gaussian estimates held by a league (docs/model.md §4).
 
 Targets are estimated independently, so the joint covariance is block diagonal and stored as one
 4×4 block per target; state per target ``[px, py, vx, vy]``.

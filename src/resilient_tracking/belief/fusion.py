@@ -1,4 +1,4 @@
-"""Covariance intersection for merging league estimates (SPEC §3, paper CI eqs.).
+"""Covariance intersection for merging league estimates (docs/model.md §4, paper CI eqs.).
 
 ``P⁻¹ = λ P₁⁻¹ + (1 − λ) P₂⁻¹``, ``ŷ = P (λ P₁⁻¹ ŷ₁ + (1 − λ) P₂⁻¹ ŷ₂)``, with ``λ ∈ [0, 1]``
 minimising ``tr P`` or ``det P``. CI is consistent whatever the (unknown) correlation between the

@@ -1,4 +1,4 @@
-"""Zone knowledge: what a robot believes about danger zones (SPEC §2).
+"""Zone knowledge: what a robot believes about danger zones (docs/model.md §3).
 
 A zone estimate carries its kind, center mean and covariance, size (radius ``r`` for sensing,
 jamming strength ``δ2`` for comm), source and the step it was learned. Within a league the

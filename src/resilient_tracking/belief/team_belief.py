@@ -1,6 +1,6 @@
 """The team's belief: leagues, one shared target estimate per league, zone knowledge per robot.
 
-Each tick (SPEC §2–3):
+Each tick (docs/model.md §3–4):
 
 1. attack clues are learned by their victims (if the team learns zones at all);
 2. leagues are the connected components of the observed link graph;

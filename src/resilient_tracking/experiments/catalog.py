@@ -1,4 +1,4 @@
-"""The paper's experiments (SPEC §6) as data: scenario, variants, seeds.
+"""The paper's experiments (docs/model.md §8) as data: scenario, variants, seeds.
 
 An :class:`Experiment` names a shipped scenario file and the variants to run on it. A
 :class:`Variant` is a policy plus overrides of the scenario file by dotted path
@@ -20,18 +20,16 @@ from typing import Any
 
 import yaml
 
+from resilient_tracking import scenarios
 from resilient_tracking.scenario import Scenario, parse_scenario
 
 
 def default_scenario_dir() -> Path:
-    """``./scenarios`` when run from a checkout, else the checkout this package sits in."""
-    here = Path.cwd() / "scenarios"
-    if (here / "bench-risk.yaml").exists():
-        return here
-    return Path(__file__).resolve().parents[3] / "scenarios"
+    """The shipped scenarios (package data, found from any working directory)."""
+    return scenarios.folder()
 
 
-#: Risk levels of the comparison with SOG (SPEC §5): ours ε1 and SOG ρ2 per level.
+#: Risk levels of the comparison with SOG (docs/model.md §7): ours ε1 and SOG ρ2 per level.
 RISK_LEVELS: dict[str, tuple[float, float]] = {
     "risky": (0.05, 0.6),
     "regular": (0.02, 0.3),
@@ -55,7 +53,7 @@ class Variant:
 @dataclass(frozen=True)
 class Experiment:
     name: str
-    scenario: str  # file name under scenarios/, without .yaml
+    scenario: str  # name of a shipped scenario (``resilient_tracking.scenarios``)
     variants: tuple[Variant, ...]
     seeds: int
     description: str = ""
@@ -82,9 +80,14 @@ class Task:
     @property
     def fingerprint(self) -> str:
         """Hash of everything that determines the run's tables; a stored run with another
-        fingerprint is stale and is run again."""
+        fingerprint is stale and is run again. The free-text ``description`` is left out:
+        rewording it changes no result."""
         text = json.dumps(
-            [self.scenario.model_dump(mode="json"), self.variant.policy, self.seed],
+            [
+                self.scenario.model_dump(mode="json", exclude={"description"}),
+                self.variant.policy,
+                self.seed,
+            ],
             sort_keys=True,
         )
         return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -165,7 +168,7 @@ SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp"
 
 
 def catalog(quick: bool = False) -> dict[str, Experiment]:
-    """Every experiment of SPEC §6 by name; ``quick`` is the CI-sized version."""
+    """Every experiment of docs/model.md §8 by name; ``quick`` is the CI-sized version."""
     experiments = [_pair(name, 2 if quick else 10) for name in SIX]
     experiments += [
         Experiment(

@@ -1,4 +1,4 @@
-"""The paper's claims (SPEC §6), checked on an experiment's summary table.
+"""The paper's claims (docs/model.md §8), checked on an experiment's summary table.
 
 Each check returns :class:`Claim` objects that say whether the claim holds and give the
 numbers it was decided on, so that a report can state plainly which ones do not.
@@ -113,5 +113,5 @@ CHECKS = {
 
 
 def check(exp: Experiment, summary: pd.DataFrame) -> list[Claim]:
-    """Every claim of SPEC §6 that applies to ``exp``."""
+    """Every claim of docs/model.md §8 that applies to ``exp``."""
     return CHECKS[exp.kind](exp, summary)

@@ -17,7 +17,7 @@ import casadi
 import pandas as pd
 
 from resilient_tracking import __version__
-from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task
+from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task, catalog
 from resilient_tracking.experiments.claims import Claim, check
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
@@ -100,7 +100,7 @@ def _figures(exp: Experiment, runs: dict[str, list[RunData]], summary: pd.DataFr
 def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[str, list[Claim]]:
     """Summarise, draw and check one experiment; returns its markdown and claims."""
     done = [t for t in tasks if is_done(out, t)]
-    header = f"## {exp.name}\n\n{exp.description}. Scenario `scenarios/{exp.scenario}.yaml`."
+    header = f"## {exp.name}\n\n{exp.description}. Shipped scenario `{exp.scenario}`."
     if not done:
         return header + "\n\nNo finished runs.\n", []
     runs: dict[str, list[RunData]] = defaultdict(list)
@@ -111,16 +111,30 @@ def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[s
     folder.mkdir(parents=True, exist_ok=True)
     summary.to_csv(folder / "summary.csv", index=False)
     claims = check(exp, summary)
+    seeds = int(summary["seed"].nunique())
+    full = catalog()[exp.name].seeds if exp.name in catalog() else seeds
+    mark = f" *(indicative: {seeds} of the protocol's {full} seeds)*" if seeds < full else ""
     parts = [
         header,
         f"{len(done)} of {len(tasks)} runs finished; per-run rows in `{exp.name}/summary.csv`.",
         variant_table(summary),
-        "**Claims**\n\n"
-        + "\n".join(f"- {'✅' if c.holds else '❌'} {c.statement}: {c.evidence}" for c in claims),
+        "**Claims**"
+        + mark
+        + "\n\n"
+        + "\n".join(
+            f"- {'✅' if c.holds else '❌'}{mark} {c.statement}: {c.evidence}" for c in claims
+        ),
     ]
     for caption, path in _figures(exp, runs, summary, folder / "figures"):
         parts.append(f"![{caption}]({path.relative_to(out).as_posix()})")
     return "\n\n".join(parts) + "\n", claims
+
+
+def _is_short(exp: Experiment, tasks: list[Task], out: Path) -> bool:
+    """Whether an experiment's finished runs cover fewer seeds than its full protocol."""
+    seeds = {t.seed for t in tasks if is_done(out, t)}
+    full = catalog()[exp.name].seeds if exp.name in catalog() else len(seeds)
+    return bool(seeds) and len(seeds) < full
 
 
 def _source_revision() -> str:
@@ -159,11 +173,22 @@ def write_report(
         "",
         f"**{held} of {len(claims)} claims hold.**"
         + (
+            " *Indicative only: some experiments ran fewer seeds than the protocol "
+            "(`--quick` or `--seeds`), so a claim may hold or fail by chance.*"
+            if any(_is_short(e, tasks[e.name], out) for e in experiments)
+            else ""
+        )
+        + (
             ""
             if not failing
             else " Not holding: "
             + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing)
         ),
+        "",
+        "In the tables, `a ± b` is the mean over seeds of the run's time-averaged value, and "
+        "`b` the standard deviation across seeds (population, not a confidence interval); "
+        "failures and survival are means over seeds, solver failures a total. Bands in the "
+        "figures are the mean ± 1 standard deviation across seeds at each time.",
         "",
         *sections,
     ]

@@ -1,4 +1,4 @@
-"""One row per stored run, computed from its saved tables (SPEC §6 metrics)."""
+"""One row per stored run, computed from its saved tables (docs/model.md §8 metrics)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Connected components of an undirected link graph (leagues, SPEC §1)."""
+"""Connected components of an undirected link graph (leagues, docs/model.md §1)."""
 
 from __future__ import annotations
 

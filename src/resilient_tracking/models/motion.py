@@ -1,4 +1,4 @@
-"""Nearly-constant-velocity target model used by the estimator (SPEC §1, paper eq. 1).
+"""Nearly-constant-velocity target model used by the estimator (docs/model.md §1, paper eq. 1).
 
 State per target ``[px, py, vx, vy]``; white-acceleration noise with standard deviation
 ``accel_std`` (m/s²) per axis, discretised exactly for a step ``dt``.

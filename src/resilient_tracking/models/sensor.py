@@ -1,4 +1,4 @@
-"""Range-bearing sensor with distance-dependent noise (SPEC §1, paper eq. 2).
+"""Range-bearing sensor with distance-dependent noise (docs/model.md §1, paper eq. 2).
 
 Each sensor has inverse variance ``R⁻¹(d) = peak · exp(−shape · d)``, so the noise variance is
 ``R(d) = exp(shape · d) / peak``; noise is drawn with that variance.

@@ -1,4 +1,5 @@
-"""The one-step league NLP (SPEC §4, paper eq. 7), built once per structure, solved many times.
+"""The one-step league NLP (docs/model.md §5, paper eqs. 6 and 9), built once per structure,
+solved many times.
 
 Decision variables per league robot ``i``: velocity ``u_i``, slacks ``ν_il ≥ 0`` per known
 sensing zone and ``ξ_ik ≥ 0`` per known comm zone::

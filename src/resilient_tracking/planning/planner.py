@@ -1,4 +1,4 @@
-"""Solve league problems: cached by structure, warm-started, never crashing (SPEC §7).
+"""Solve league problems: cached by structure, warm-started, never crashing (docs/model.md §9).
 
 The solver ladder per solve (``solver="ladder"``, the default):
 
@@ -182,7 +182,7 @@ class SolverLadder:
 
 
 class LeaguePlanner(SolverLadder):
-    """The ladder over the league problems of SPEC §4; ``options`` are passed to every
+    """The ladder over the league problems of docs/model.md §5; ``options`` are passed to every
     :class:`LeagueProblem`."""
 
     def __init__(

@@ -1,4 +1,4 @@
-"""The last rung of the solver ladder (SPEC §7): a safe action when no solve succeeded.
+"""The last rung of the solver ladder (docs/model.md §9): a safe action when no solve succeeded.
 
 A robot that violates the chance constraint of a known zone (eq. 7c for sensing zones, eq. 7d
 with its teammates for comm zones) steps straight away from those zones; every other robot holds

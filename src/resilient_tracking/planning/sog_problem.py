@@ -1,5 +1,5 @@
-"""The one-step NLP of the risk-aware SOG baseline (SPEC §5), a *reconstruction* of Mayya et
-al., RA-L 2022, from its published description; its exact program could not be consulted.
+"""The one-step NLP of the risk-aware SOG baseline (docs/model.md §7.2), a *reconstruction*
+of Mayya et al., RA-L 2022, from its published description; its exact program was not available.
 
 Per league robot ``i``: velocity ``u_i`` and a risk slack ``δ2i ≥ 0`` (when zones are known);
 per target ``j`` a tracking slack ``δ1j ≥ 0``::
@@ -10,7 +10,7 @@ per target ``j`` a tracking slack ``δ1j ≥ 0``::
     with P⁺_j = (P⁻_j⁻¹ + O_j)⁻¹,  O_j = Σ_i s_i (1 − φᵒ_i(x_i⁺)) H_ijᵀ R_ij⁻¹ H_ij   (the SOG)
 
 ``s_i = 1`` when robot ``i``'s sensor works. A failure likelihood is the Gaussian zone hazard
-of SPEC §1.1 accumulated over a window ``T`` at the zone *estimates*::
+of docs/model.md §2 accumulated over a window ``T`` at the zone *estimates*::
 
     φ(x) = 1 − exp(−c Σ_l pdf_N(μ̂_l, Σ̂_l)(x)),   c = κ f_act T
 

@@ -1,4 +1,4 @@
-"""Failure-aware coordination: the paper's Algorithm 1 (SPEC §4.1).
+"""Failure-aware coordination: the paper's Algorithm 1 (docs/model.md §6).
 
 Per league, every tick:
 

@@ -1,12 +1,12 @@
 """Risk-aware SOG baseline after Mayya et al., RA-L 2022, "Adaptive and Risk-Aware Target
-Tracking with Heterogeneous Robot Teams" (SPEC §5).
+Tracking with Heterogeneous Robot Teams" (docs/model.md §7).
 
 **A reconstruction.** The original program could not be consulted; this policy is rebuilt
-from its published description as SPEC §5 restates it, and the choices it had to make are
+from its published description as docs/model.md §7 restates it, and the choices it had to make are
 listed in ``docs/paper-map.md``. Per league, every tick (program in ``planning/sog_problem``):
 
 * the failure likelihood ``φ_i(x)`` of each robot near the sensing zones the league *knows*
-  (belief only) is the zone hazard of SPEC §1.1 accumulated over ``risk_window`` seconds;
+  (belief only) is the zone hazard of docs/model.md §2 accumulated over ``risk_window`` seconds;
 * the safety-aware observability Gramian ``O_j = Σ_i (1 − φᵒ_i) Hᵀ R⁻¹ H`` weighs each
   sensor's information by its probability ``1 − φᵒ_i`` of surviving the planned step
   (``survival_steps``), and ``P⁺_j = (P⁻_j⁻¹ + O_j)⁻¹``;

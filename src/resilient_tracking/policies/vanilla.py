@@ -1,4 +1,4 @@
-"""Vanilla baseline (SPEC §5): fixed weights, no zone knowledge, no adaptation.
+"""Vanilla baseline (docs/model.md §7): fixed weights, no zone knowledge, no adaptation.
 
 Each league minimises ``w1 Σ tr P⁺ + w2 Σ‖u‖²``; robots that cannot sense contribute nothing,
 and a robot cut off from the others plans alone.

@@ -143,21 +143,6 @@ class EpisodeRecorder:
     def event(self, e: Event) -> None:
         self.events.append({"step": e.step, "robot": e.robot, "event": e.event, "detail": e.detail})
 
-    def observation(self, obs: TeamObservation) -> None:
-        for a in obs.attacks:
-            c = a.clue
-            persistence = "temporary" if a.cause == "jamming" else c.persistence
-            self.event(
-                Event(
-                    obs.step,
-                    a.robot,
-                    "attack",
-                    f"{c.kind} zone{c.zone_id} {persistence} ({a.cause})",
-                )
-            )
-        for robot, kind in obs.recoveries:
-            self.event(Event(obs.step, robot, "recover", kind))
-
     def step(
         self,
         obs: TeamObservation,
@@ -168,10 +153,9 @@ class EpisodeRecorder:
     ) -> None:
         k = obs.step
         belief = team.belief
-        for e in out.events:
+        for e in out.events:  # every event of the tick, attacks and learned zones included
             self.event(e)
         for robot, z in belief.learned:
-            self.event(Event(k, robot, "zone_learned", f"{z.key} {z.kind} via {z.source}"))
             self.knowledge.append(
                 {
                     "step": k,
@@ -265,7 +249,6 @@ def run_episode(
         truth = world.target_states
         out = team.step(obs)
         applied = world.step(out.controls)
-        recorder.observation(obs)
         recorder.step(obs, out, applied, truth, team)
         if progress is not None:
             progress(1)

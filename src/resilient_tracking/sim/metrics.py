@@ -1,4 +1,4 @@
-"""Per-step metrics of SPEC §6: MSE, covariance trace, control effort."""
+"""Per-step metrics of docs/model.md §8: MSE, covariance trace, control effort."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Figures over many saved runs (SPEC §6): snapshots, mean ± 1 std bands, box plots.
+"""Figures over many saved runs (docs/model.md §8): snapshots, mean ± 1 std bands, box plots.
 
 Inputs are :class:`~resilient_tracking.viz.io.RunData` read from run folders and the summary
 table built from them, never objects of a live simulation.
@@ -17,19 +17,23 @@ from matplotlib.figure import Figure
 
 from resilient_tracking.viz.curves import wants_log_scale
 from resilient_tracking.viz.io import RunData
-from resilient_tracking.viz.trajectories import DPI, plot_trajectory_map
+from resilient_tracking.viz.trajectories import plot_trajectory_map
 
 log = logging.getLogger(__name__)
 
 #: Curves of the band figures: team-table column, axis label.
 BAND_METRICS = (("mse", "MSE [m²]"), ("trace", "Σ tr P [m²]"))
 EFFORT_METRIC = (("effort", "effort Σ‖u‖ [m/s]"),)
+#: Resolution of sweep figures: reports hold dozens of them, so lighter than a run's figures.
+SWEEP_DPI = 100
+#: Box colours of the policies, in the order given.
+POLICY_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
 
 
 def _save(fig: Figure, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    fig.savefig(path, dpi=SWEEP_DPI, bbox_inches="tight")
     log.info("wrote %s", path)
     return path
 
@@ -121,10 +125,13 @@ def plot_scale_boxes(summary: pd.DataFrame, path: Path, metric: str = "trace") -
             rows = summary[(summary["targets"] == t) & (summary["tag_method"] == method)]
             data = [rows.loc[rows["robots"] == r, metric].to_numpy() for r in robots]
             positions = np.arange(len(robots)) + (m - (len(methods) - 1) / 2) * width
-            box = ax.boxplot(data, positions=positions, widths=width * 0.9, patch_artist=True)
+            box = ax.boxplot(
+                data, positions=positions, widths=width * 0.9, patch_artist=True, showfliers=False
+            )
             for patch in box["boxes"]:
                 patch.set_facecolor(colors[m % len(colors)])
                 patch.set_alpha(0.5)
+            _overlay_points(ax, positions, data, colors[m % len(colors)])
             ax.plot([], [], color=colors[m % len(colors)], lw=6, alpha=0.5, label=method)
         ax.set_xticks(np.arange(len(robots)), [str(r) for r in robots])
         ax.set_xlabel("robots")
@@ -134,4 +141,42 @@ def plot_scale_boxes(summary: pd.DataFrame, path: Path, metric: str = "trace") -
         axes[0].set_yscale("log")
     axes[0].set_ylabel(f"time-averaged {metric}")
     axes[-1].legend(fontsize="small")
+    return _save(fig, path)
+
+
+def _overlay_points(ax, positions, data, color: str) -> None:
+    """Every seed as a dot over its box (the boxes draw no outliers of their own), so that a
+    box of one or two seeds still shows them."""
+    for x, values in zip(positions, data, strict=True):
+        offsets = np.linspace(-0.08, 0.08, len(values)) if len(values) > 1 else np.zeros(1)
+        ax.plot(
+            x + offsets[: len(values)], values, "o", ms=3.5, mfc=color, mec="k", mew=0.5, zorder=3
+        )
+
+
+def plot_policy_boxes(
+    runs: pd.DataFrame, path: Path, metrics: Sequence[str] = ("trace", "mse")
+) -> Path:
+    """Box plots of time-averaged metrics over seeds, one box per policy, one panel per
+    metric; each seed is drawn as a dot."""
+    policies = list(dict.fromkeys(runs["policy"]))
+    fig = Figure(figsize=(3.4 * len(metrics), 3.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(1, len(metrics)))
+    for ax, metric in zip(axes, metrics, strict=True):
+        data = [runs.loc[runs["policy"] == p, metric].to_numpy(dtype=float) for p in policies]
+        positions = np.arange(len(policies), dtype=float)
+        box = ax.boxplot(data, positions=positions, widths=0.6, patch_artist=True, showfliers=False)
+        for patch, color in zip(box["boxes"], POLICY_COLORS, strict=False):
+            patch.set_facecolor(color)
+            patch.set_alpha(0.4)
+        for k, values in enumerate(data):
+            _overlay_points(
+                ax, positions[k : k + 1], [values], POLICY_COLORS[k % len(POLICY_COLORS)]
+            )
+        ax.set_xticks(positions, policies, rotation=15)
+        if metric in ("trace", "mse") and wants_log_scale(runs[metric].to_numpy(dtype=float)):
+            ax.set_yscale("log")
+        ax.set_title(f"time-averaged {metric}", fontsize="medium")
+        ax.grid(True, axis="y", lw=0.4, alpha=0.4)
     return _save(fig, path)

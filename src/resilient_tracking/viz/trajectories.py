@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import rgb_to_hsv, to_hex, to_rgb
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Ellipse, Rectangle
 
@@ -46,9 +47,41 @@ N_SIGMA = 2.0
 DPI = 150
 
 
+#: Most robots a scenario may have (``scenario.MAX_ROBOTS``); each gets its own colour.
+N_ROBOT_COLORS = 64
+
+
+def _extra_colors(base: tuple[str, ...], n: int) -> tuple[str, ...]:
+    """``n`` colours after ``base``, picked greedily from a 6×6×6 RGB grid without greys, black,
+    red (sensing) and cyan (comm): each is the candidate farthest from every colour picked so
+    far, so the colours of a large team stay apart."""
+    grid = np.stack(np.meshgrid(*[np.linspace(0, 1, 6)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    hsv = rgb_to_hsv(grid)
+    hue, sat, val = hsv[:, 0], hsv[:, 1], hsv[:, 2]
+    keep = (
+        (sat > 0.3)  # not grey (targets)
+        & (val > 0.25)  # not black
+        & ((np.minimum(hue, 1 - hue) > 0.03) | (sat < 0.6))  # not red (sensing)
+        & ((np.abs(hue - 0.5) > 0.05) | (sat < 0.6))  # not cyan (comm)
+    )
+    candidates = grid[keep]
+    chosen = [np.array(to_rgb(c)) for c in base]
+    picked: list[str] = []
+    for _ in range(n):
+        gap = np.min(np.linalg.norm(candidates[:, None] - np.array(chosen)[None], axis=-1), axis=1)
+        best = int(np.argmax(gap))
+        chosen.append(candidates[best])
+        picked.append(to_hex(candidates[best]))
+    return tuple(picked)
+
+
+ROBOT_PALETTE = ROBOT_COLORS + _extra_colors(ROBOT_COLORS, N_ROBOT_COLORS - len(ROBOT_COLORS))
+
+
 def robot_color(robot: int) -> str:
-    """Colour of robot ``robot`` (stable across figures of one run)."""
-    return ROBOT_COLORS[int(robot) % len(ROBOT_COLORS)]
+    """Colour of robot ``robot`` (stable across figures of one run): the ten above, then
+    54 more, so that every robot of the largest team has its own."""
+    return ROBOT_PALETTE[int(robot) % len(ROBOT_PALETTE)]
 
 
 def known_zones_at(knowledge: pd.DataFrame, step: int | None) -> pd.DataFrame:

@@ -1,4 +1,4 @@
-"""Communication links: the jamming rule and the link graph (SPEC §1, paper eq. 4)."""
+"""Communication links: the jamming rule and the link graph (docs/model.md §1, paper eq. 4)."""
 
 from __future__ import annotations
 

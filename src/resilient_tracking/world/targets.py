@@ -1,4 +1,4 @@
-"""Scripted truth motion of the targets (SPEC §1)."""
+"""Scripted truth motion of the targets (docs/model.md §1)."""
 
 from __future__ import annotations
 

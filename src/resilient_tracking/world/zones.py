@@ -1,4 +1,4 @@
-"""Danger zones as they truly are, and the hazard models that fire their attacks (SPEC §1.1)."""
+"""Danger zones as they truly are, and the hazard models that fire attacks (docs/model.md §2)."""
 
 from __future__ import annotations
 

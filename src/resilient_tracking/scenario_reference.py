@@ -1,0 +1,216 @@
+"""The scenario reference (``docs/scenario-reference.md``), generated from the pydantic schema.
+
+Every field of :class:`~resilient_tracking.scenario.Scenario` and of the models below it is listed
+with its type, unit, default, valid range and description, all read from the code, so the
+reference cannot drift from what the loader accepts. Regenerate it with::
+
+    python -m resilient_tracking.scenario_reference > docs/scenario-reference.md
+
+``tests/test_scenario_reference.py`` fails when the file is stale or a field has no description.
+"""
+
+from __future__ import annotations
+
+import sys
+import types
+import typing
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any, Literal, Union, get_args, get_origin
+
+import annotated_types as at
+import yaml
+from pydantic import BaseModel
+from pydantic.fields import FieldInfo
+
+from resilient_tracking.scenario import MAX_COORDINATE, Scenario
+
+
+@dataclass(frozen=True)
+class Section:
+    """One mapping of the format: its dotted path, the model behind it, a variant label."""
+
+    path: str
+    model: type[BaseModel]
+    variant: str = ""
+
+
+def _strip(annotation: Any) -> Any:
+    """The type under ``Annotated[...]``."""
+    while get_origin(annotation) is typing.Annotated:
+        annotation = get_args(annotation)[0]
+    return annotation
+
+
+def _is_union(annotation: Any) -> bool:
+    return get_origin(annotation) in (Union, types.UnionType)
+
+
+def _models(annotation: Any) -> list[type[BaseModel]]:
+    """The models a field holds directly, in a list or in a union (``None`` left out)."""
+    annotation = _strip(annotation)
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    if get_origin(annotation) is list:
+        return _models(get_args(annotation)[0])
+    if _is_union(annotation):
+        return [m for arg in get_args(annotation) for m in _models(arg)]
+    return []
+
+
+def type_name(annotation: Any) -> str:
+    """Plain words for a field's type as a YAML author sees it."""
+    annotation = _strip(annotation)
+    origin = get_origin(annotation)
+    if _is_union(annotation):
+        args = [a for a in get_args(annotation) if a is not type(None)]
+        models = _models(annotation)
+        if len(models) > 1:
+            return "mapping (one of the variants below)"
+        text = " or ".join(type_name(a) for a in args)
+        return text + (" or null" if len(args) < len(get_args(annotation)) else "")
+    if origin is Literal:
+        return " \\| ".join(f"`{v}`" for v in get_args(annotation))
+    if origin is tuple:
+        inner = _strip(get_args(annotation)[0])
+        return "2×2 matrix `[[a, b], [c, d]]`" if get_origin(inner) is tuple else "point `[x, y]`"
+    if origin is list:
+        item = _strip(get_args(annotation)[0])
+        if get_origin(item) is tuple:
+            return "list of points"
+        return "list of mappings"
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return "mapping"
+    return {float: "number", int: "integer", str: "string", bool: "bool"}.get(
+        annotation, str(annotation)
+    )
+
+
+def _yaml(value: Any) -> str:
+    if isinstance(value, BaseModel):
+        value = value.model_dump(mode="json")
+    if isinstance(value, tuple):
+        value = [list(v) if isinstance(v, tuple) else v for v in value]
+    return (
+        yaml.safe_dump(value, default_flow_style=True, width=10_000, sort_keys=False)
+        .strip()
+        .removesuffix("\n...")
+        .removesuffix(" ...")
+    )
+
+
+def default_text(field: FieldInfo) -> str:
+    if field.is_required():
+        return "**required**"
+    if field.default_factory is not None:
+        return f"`{_yaml(field.default_factory())}`"  # type: ignore[call-arg]
+    value = field.default
+    if isinstance(value, BaseModel):
+        try:
+            if type(value)() == value:
+                return "see below"
+        except ValueError:
+            pass
+    return f"`{_yaml(value)}`"
+
+
+def range_text(field: FieldInfo) -> str:
+    parts = []
+    if get_origin(_strip(field.annotation)) is tuple:
+        parts.append(f"each number within ±{MAX_COORDINATE:g}")
+    for m in field.metadata:
+        for attr, word in (("gt", ">"), ("ge", "≥"), ("lt", "<"), ("le", "≤")):
+            if isinstance(m, getattr(at, attr.capitalize())):
+                parts.append(f"{word} {getattr(m, attr):g}")
+        if isinstance(m, at.MinLen):
+            parts.append(f"at least {m.min_length} item(s)")
+        if isinstance(m, at.MaxLen):
+            parts.append(f"at most {m.max_length} items")
+    return ", ".join(parts)
+
+
+def unit_text(field: FieldInfo) -> str:
+    extra = field.json_schema_extra
+    return str(extra.get("unit", "–")) if isinstance(extra, dict) else "–"
+
+
+def sections(model: type[BaseModel] = Scenario, path: str = "") -> Iterator[Section]:
+    """Every mapping of the format, depth first, variants of a union one by one."""
+    yield Section(path, model)
+    for name, field in model.model_fields.items():
+        child = f"{path}.{name}" if path else name
+        if get_origin(_strip(field.annotation)) is list:
+            child += "[]"
+        models = _models(field.annotation)
+        for sub in models:
+            if len(models) > 1:
+                tag, literal = next(  # the discriminator: a Literal of one value
+                    (n, get_args(_strip(f.annotation))[0])
+                    for n, f in sub.model_fields.items()
+                    if get_origin(_strip(f.annotation)) is Literal
+                    and len(get_args(_strip(f.annotation))) == 1
+                )
+                for s in sections(sub, child):
+                    yield (Section(s.path, s.model, f"{tag}: {literal}") if s.model is sub else s)
+            else:
+                yield from sections(sub, child)
+
+
+def _table(section: Section) -> str:
+    lines = [
+        "| field | type | unit | default | valid | meaning |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, field in section.model.model_fields.items():
+        lines.append(
+            f"| `{name}` | {type_name(field.annotation)} | {unit_text(field)} "
+            f"| {default_text(field)} | {range_text(field)} "
+            f"| {(field.description or '').replace('|', chr(92) + '|')} |"
+        )
+    return "\n".join(lines)
+
+
+def _anchor(path: str, variant: str) -> str:
+    """The heading's anchor as MkDocs makes it (lower case, punctuation dropped)."""
+    text = f"{path} ({variant})" if variant else path
+    keep = "".join(c for c in text.lower() if c.isalnum() or c in " _-")
+    return "-".join(keep.split())
+
+
+def render() -> str:
+    parts = [
+        "# Scenario reference",
+        "",
+        "Generated from the schema in `resilient_tracking/scenario.py` by "
+        "`python -m resilient_tracking.scenario_reference > docs/scenario-reference.md`; do not "
+        "edit by hand. [scenario-format.md](scenario-format.md) explains the format with "
+        "examples; the rules there (strict numbers, unknown keys are errors, cross-field "
+        "checks) apply to every field below.",
+        "",
+        "A path such as `zones[].hazard` names a mapping inside every item of a list; a mapping "
+        "with variants (`kind`, `type`, `model`) is listed once per variant.",
+        "",
+    ]
+    seen: dict[tuple[type[BaseModel], str], str] = {}
+    for section in sections():
+        title = f"`{section.path}`" if section.path else "Top level"
+        if section.variant:
+            title += f" ({section.variant})"
+        doc = (section.model.__doc__ or "").strip().split("\n\n")[0]
+        doc = " ".join(doc.split())
+        key = (section.model, section.variant)
+        if seen.get(key) == section.path:
+            continue  # a union's variant met again under another variant of its parent
+        first = seen.setdefault(key, section.path)
+        parts += [f"## {title}", ""]
+        if first != section.path:
+            parts += [f"The same fields as [`{first}`](#{_anchor(first, section.variant)}).", ""]
+            continue
+        if doc and section.model is not Scenario:
+            parts += [doc, ""]
+        parts += [_table(section), ""]
+    return "\n".join(parts)
+
+
+if __name__ == "__main__":
+    sys.stdout.write(render())
