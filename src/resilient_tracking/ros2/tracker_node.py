@@ -226,7 +226,6 @@ class TrackerNode:
             return False
         self._publish_commands(positions, applied, msg.header.stamp)
         truth = np.concatenate([truth_xy, np.zeros_like(truth_xy)], axis=1)  # positions only
-        self.recorder.observation(obs)
         self.recorder.step(obs, out, applied, truth, self.team)
         header = msgs.Header(stamp=msg.header.stamp, frame_id=self.settings.frame)
         markers = belief_markers(
