@@ -170,6 +170,7 @@ def test_win_rates_ratios_and_straggler_share_on_a_tiny_table():
     assert (share.k, share.n) == (1, 12)
     text = section(s)
     assert "2/3 = 67%" in text and "median 2.00×" in text
+    assert "| failure_aware, zones removed | 3 | 9 | 0/9 = 0%" in text
 
 
 def test_targets_hold_or_fail_as_the_numbers_say():

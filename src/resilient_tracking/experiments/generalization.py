@@ -106,28 +106,31 @@ def section(summary: pd.DataFrame) -> str:
     ratio_lines = [f"- {p}: {_quantiles(r)}" for p, r in ratios.items() if not r.empty] or [
         "- no zone-free runs"
     ]
-    rows = _with_zones(summary)
     lost = [
         "| policy | runs | robots | robots lost (sensor or radio destroyed) | robots attacked "
         "| robots sensing at the end | stragglers (> 1.5 m from every target) |",
         "|---|---|---|---|---|---|---|",
     ]
-    for policy in POLICIES:
-        r = rows[rows["policy"] == policy]
+    no_zones = summary.get("tag_no_zones", pd.Series(False, index=summary.index)).astype(bool)
+    groups: list[tuple[str, pd.DataFrame]] = [
+        (p, summary[~no_zones & (summary["policy"] == p)]) for p in POLICIES
+    ]
+    groups.append(("failure_aware, zones removed", summary[no_zones]))
+    for label, r in groups:
         if r.empty:
             continue
         robots = int(r["robots"].sum())
         lost.append(
-            f"| {policy} | {len(r)} | {robots} | {wilson(int(r.robots_lost.sum()), robots)} "
+            f"| {label} | {len(r)} | {robots} | {wilson(int(r.robots_lost.sum()), robots)} "
             f"| {wilson(int(r.robots_attacked.sum()), robots)} | {int(r.sensing_end.sum())} "
-            f"| {straggler_share(summary, policy)} |"
+            f"| {wilson(int(r.stragglers.sum()), int(r.sensing_end.sum()))} |"
         )
     return "\n\n".join(
         [
             "**Win rates** (share of scenarios, Wilson 95 % interval)\n\n" + "\n".join(lines),
             "**Last-third trace ÷ the zone-free run's** (same policy and seed)\n\n"
             + "\n".join(ratio_lines),
-            "**Robots lost and stragglers** (runs with zones; shares of robots)\n\n"
-            + "\n".join(lost),
+            "**Robots lost and stragglers** (shares of robots; stragglers among those that can "
+            "still sense at the end)\n\n" + "\n".join(lost),
         ]
     )
