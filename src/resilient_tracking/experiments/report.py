@@ -167,14 +167,20 @@ def write_report(
         f"{casadi.CasadiMeta.version()}, Python {platform.python_version()} on "
         f"{platform.machine()} ({os.cpu_count()} cores).",
         "",
-        f"**{held} of {len(claims)} claims hold.**"
-        + (
-            ""
-            if not failing
-            else " Not holding: "
-            + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing)
+        *(
+            [
+                f"**{held} of {len(claims)} claims hold.**"
+                + (
+                    ""
+                    if not failing
+                    else " Not holding: "
+                    + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing)
+                ),
+                "",
+            ]
+            if claims or not targets  # a run of the generalization benchmark alone has none
+            else []
         ),
-        "",
         *(
             [
                 f"**Generalization benchmark: {sum(c.holds for c in targets)} of {len(targets)} "
