@@ -42,7 +42,7 @@ def tables_of(out, task):
 
 def test_catalog_has_every_experiment_of_spec_section_6_with_its_seed_counts():
     full = catalog()
-    assert set(full) == {*SIX, "bench-risk", "bench-scale", "bench-complex"}
+    assert set(full) == {*SIX, "bench-risk", "bench-scale", "bench-complex", "generalization"}
     assert all(full[n].seeds == 10 for n in SIX)
     assert full["bench-scale"].seeds == 5
     cells = {(v.tags["robots"], v.tags["targets"]) for v in full["bench-scale"].variants}
@@ -202,6 +202,14 @@ def quick_claims(tmp_path_factory):
         for c in check(exp, pd.DataFrame(rows)):
             claims[(name, c.statement)] = c
     return claims
+
+
+def test_quick_reproduction_reports_the_generalization_targets(quick_claims):
+    """The generated suite runs in `all` and its targets are decided (they are reported, not
+    asserted: the project must not be tuned on the suite)."""
+    found = [c for (n, _), c in quick_claims.items() if n == "generalization"]
+    assert len(found) == 3
+    assert all("/" in c.evidence and "CI" in c.evidence for c in found)
 
 
 @pytest.mark.parametrize("name", [*SIX, "bench-risk", "bench-scale", "bench-complex"])

@@ -130,7 +130,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     report = write_report(experiments, plan, out, command)
     print(f"{len(ran)} run(s) done, {len(everything) - len(ran)} already stored; wrote {report}")
     for line in report.read_text().splitlines():
-        if line.startswith("**") and "claims hold" in line:
+        if line.startswith("**") and ("claims hold" in line or "targets hold" in line):
             print(line.replace("**", ""))
     return 0
 

@@ -1,9 +1,10 @@
 """The paper's experiments (docs/model.md §8) as data: scenario, variants, seeds.
 
-An :class:`Experiment` names a shipped scenario file and the variants to run on it. A
-:class:`Variant` is a policy plus overrides of the scenario file by dotted path
-(``policy.failure_aware.eps1``, ``zones.0.hazard.kappa``…) and, for the scaling study, how many
-of the file's robots and targets to keep. Every (variant, seed) pair is one run.
+An :class:`Experiment` names a shipped scenario file (or, for ``generalization``, a generated
+suite) and the variants to run on it. A :class:`Variant` is a policy plus overrides of the
+scenario by dotted path (``policy.failure_aware.eps1``, ``zones.0.hazard.kappa``…) and, for the
+scaling study, how many of the file's robots and targets to keep. Every (variant, seed) pair is
+one run.
 
 ``quick`` experiments shrink the seed count (and drop grid cells) so that the whole catalogue
 runs in a few minutes, as CI does; the claims checked on them are the same.
@@ -13,14 +14,16 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from resilient_tracking import scenarios
+from resilient_tracking.experiments.generator import SUITE_SEED, suite
 from resilient_tracking.scenario import Scenario, parse_scenario
 
 
@@ -57,8 +60,12 @@ class Experiment:
     variants: tuple[Variant, ...]
     seeds: int
     description: str = ""
-    #: figures and claims to draw from it: "pair", "risk", "scale" or "complex"
+    #: figures and claims to draw from it: "pair", "risk", "scale", "complex" or
+    #: "generalization"
     kind: str = "pair"
+    #: generated scenarios instead of a file: returns (scenario, its variants) pairs, and
+    #: ``scenario`` and ``variants`` above are unused
+    generated: Callable[[], list[tuple[Scenario, tuple[Variant, ...]]]] | None = None
 
     def seed_list(self, n: int | None = None) -> list[int]:
         return list(range(1, (n or self.seeds) + 1))
@@ -106,7 +113,13 @@ def scenario_for(
 ) -> Scenario:
     """The validated scenario of one variant (raises ``ScenarioError`` naming the field)."""
     path = (scenario_dir or default_scenario_dir()) / f"{experiment.scenario}.yaml"
-    data = yaml.safe_load(path.read_text())
+    return apply_variant(
+        yaml.safe_load(path.read_text()), variant, f"{path.name} [{variant.label}]"
+    )
+
+
+def apply_variant(data: dict[str, Any], variant: Variant, source: str) -> Scenario:
+    """A scenario mapping changed as ``variant`` says, validated."""
     if variant.n_robots is not None:
         data["robots"] = data["robots"][: variant.n_robots]
     if variant.n_targets is not None:
@@ -114,7 +127,7 @@ def scenario_for(
     data.setdefault("policy", {})["name"] = variant.policy
     for key, value in variant.overrides.items():
         set_path(data, key, value)
-    return parse_scenario(data, f"{path.name} [{variant.label}]")
+    return parse_scenario(data, source)
 
 
 def _pair(name: str, seeds: int) -> Experiment:
@@ -164,6 +177,44 @@ def _scale_variants(robots: Iterable[int], targets: Iterable[int]) -> tuple[Vari
     )
 
 
+#: The generated suite's size, and the quick (CI) run: its first few small-team scenarios.
+SUITE_SIZE = 60
+QUICK_SUITE = 4
+QUICK_MAX_PAIRS = 16
+
+
+def generalization_cases(
+    n: int = SUITE_SIZE, max_pairs: int | None = None
+) -> list[tuple[Scenario, tuple[Variant, ...]]]:
+    """The first ``n`` scenarios of the generated suite (of those with at most ``max_pairs``
+    robot-target pairs, if given), each with its arms: failure-aware, vanilla, failure-aware
+    with no zones (for the no-zone ratio) and, where every zone is a sensing zone, SOG (which
+    models sensing failures only)."""
+    scenarios = suite(SUITE_SEED, SUITE_SIZE)
+    if max_pairs is not None:
+        scenarios = [s for s in scenarios if len(s.robots) * len(s.targets) <= max_pairs]
+    out = []
+    for scenario in scenarios[:n]:
+        arms: list[tuple[str, str, dict[str, Any]]] = [
+            ("failure_aware", "failure_aware", {}),
+            ("vanilla", "vanilla", {}),
+            ("failure_aware-nozone", "failure_aware", {"zones": []}),
+        ]
+        if all(z.kind == "sensing" for z in scenario.zones):
+            arms.append(("sog", "sog", {}))
+        variants = tuple(
+            Variant(
+                f"{scenario.name}-{label}",
+                policy,
+                overrides,
+                tags={"scenario": scenario.name, "method": policy, "no_zones": bool(overrides)},
+            )
+            for label, policy, overrides in arms
+        )
+        out.append((scenario, variants))
+    return out
+
+
 SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm")
 
 
@@ -197,6 +248,22 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             description="three sensing zones along the path, 600 steps, three risk levels",
             variants=_risk_variants(),
         ),
+        Experiment(
+            "generalization",
+            "",
+            variants=(),
+            seeds=1,
+            kind="generalization",
+            description=(
+                f"{QUICK_SUITE if quick else SUITE_SIZE} generated scenarios "
+                f"{'with small teams ' if quick else ''}(docs/generalization.md): "
+                "failure-aware vs vanilla, SOG where every zone is a sensing zone, and "
+                "failure-aware without zones for the no-zone ratio"
+            ),
+            generated=partial(generalization_cases, QUICK_SUITE, QUICK_MAX_PAIRS)
+            if quick
+            else partial(generalization_cases, SUITE_SIZE),
+        ),
     ]
     return {e.name: e for e in experiments}
 
@@ -217,11 +284,19 @@ def tasks(
     experiment: Experiment, seeds: int | None = None, scenario_dir: Path | None = None
 ) -> list[Task]:
     """Every run of an experiment, validated before anything runs."""
-    out = []
-    for variant in experiment.variants:
-        scenario = scenario_for(experiment, variant, scenario_dir)
-        out += [
-            Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
-            for seed in experiment.seed_list(seeds)
+    if experiment.generated is not None:
+        arms = [
+            (
+                variant,
+                apply_variant(s.model_dump(mode="json"), variant, f"{s.name} [{variant.label}]"),
+            )
+            for s, variants in experiment.generated()
+            for variant in variants
         ]
-    return out
+    else:
+        arms = [(v, scenario_for(experiment, v, scenario_dir)) for v in experiment.variants]
+    return [
+        Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
+        for variant, scenario in arms
+        for seed in experiment.seed_list(seeds)
+    ]

@@ -17,6 +17,7 @@ import casadi
 import pandas as pd
 
 from resilient_tracking import __version__
+from resilient_tracking.experiments import generalization
 from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task, catalog
 from resilient_tracking.experiments.claims import Claim, check
 from resilient_tracking.experiments.summary import summarise_run
@@ -100,7 +101,13 @@ def _figures(exp: Experiment, runs: dict[str, list[RunData]], summary: pd.DataFr
 def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[str, list[Claim]]:
     """Summarise, draw and check one experiment; returns its markdown and claims."""
     done = [t for t in tasks if is_done(out, t)]
-    header = f"## {exp.name}\n\n{exp.description}. Shipped scenario `{exp.scenario}`."
+    generated = exp.kind == "generalization"
+    header = f"## {exp.name}\n\n{exp.description}." + (
+        " Not one of the paper's experiments: its targets are counted apart from the paper's "
+        "claims."
+        if generated
+        else f" Shipped scenario `{exp.scenario}`."
+    )
     if not done:
         return header + "\n\nNo finished runs.\n", []
     runs: dict[str, list[RunData]] = defaultdict(list)
@@ -117,15 +124,15 @@ def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[s
     parts = [
         header,
         f"{len(done)} of {len(tasks)} runs finished; per-run rows in `{exp.name}/summary.csv`.",
-        variant_table(summary),
-        "**Claims**"
+        generalization.section(summary) if generated else variant_table(summary),
+        f"**{'Targets' if generated else 'Claims'}**"
         + mark
         + "\n\n"
         + "\n".join(
             f"- {'✅' if c.holds else '❌'}{mark} {c.statement}: {c.evidence}" for c in claims
         ),
     ]
-    for caption, path in _figures(exp, runs, summary, folder / "figures"):
+    for caption, path in [] if generated else _figures(exp, runs, summary, folder / "figures"):
         parts.append(f"![{caption}]({path.relative_to(out).as_posix()})")
     return "\n\n".join(parts) + "\n", claims
 
@@ -156,11 +163,14 @@ def write_report(
     experiments: list[Experiment], tasks: dict[str, list[Task]], out: Path, command: str
 ) -> Path:
     """Write ``out/report.md`` (atomically) for the experiments' stored runs."""
-    sections, claims = [], []
+    sections, claims, targets = [], [], []
     for exp in experiments:
         text, found = experiment_section(exp, tasks[exp.name], out)
         sections.append(text)
-        claims += found
+        if exp.kind == "generalization":
+            targets += found
+        else:
+            claims += found
     held = sum(c.holds for c in claims)
     failing = [c for c in claims if not c.holds]
     lines = [
@@ -171,20 +181,39 @@ def write_report(
         f"{casadi.CasadiMeta.version()}, Python {platform.python_version()} on "
         f"{platform.machine()} ({os.cpu_count()} cores).",
         "",
-        f"**{held} of {len(claims)} claims hold.**"
-        + (
-            " *Indicative only: some experiments ran fewer seeds than the protocol "
-            "(`--quick` or `--seeds`), so a claim may hold or fail by chance.*"
-            if any(_is_short(e, tasks[e.name], out) for e in experiments)
-            else ""
-        )
-        + (
-            ""
-            if not failing
-            else " Not holding: "
-            + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing)
+        *(
+            [
+                f"**{held} of {len(claims)} claims hold.**"
+                + (
+                    " *Indicative only: some experiments ran fewer seeds than the protocol "
+                    "(`--quick` or `--seeds`), so a claim may hold or fail by chance.*"
+                    if any(
+                        _is_short(e, tasks[e.name], out)
+                        for e in experiments
+                        if e.kind != "generalization"
+                    )
+                    else ""
+                )
+                + (
+                    ""
+                    if not failing
+                    else " Not holding: "
+                    + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing)
+                ),
+                "",
+            ]
+            if claims or not targets  # a run of the generalization benchmark alone has none
+            else []
         ),
-        "",
+        *(
+            [
+                f"**Generalization benchmark: {sum(c.holds for c in targets)} of {len(targets)} "
+                "targets hold** (not claims of the paper; see its section).",
+                "",
+            ]
+            if targets
+            else []
+        ),
         "In the tables, `a ± b` is the mean over seeds of the run's time-averaged value, and "
         "`b` the standard deviation across seeds (population, not a confidence interval); "
         "failures and survival are means over seeds, solver failures a total. Bands in the "

@@ -17,11 +17,52 @@ def survival_steps(team: pd.DataFrame, n_robots: int) -> int:
     return int(team["step"].iloc[dead[0]]) if len(dead) else len(team)
 
 
+#: A robot that can still sense but ends farther than this (m) from every target is a straggler.
+STRAGGLER_DISTANCE = 1.5
+
+
+def last_third_mean(team: pd.DataFrame, column: str = "trace") -> float:
+    """Mean of ``column`` over the final third of the episode (at least its last step)."""
+    n = max(1, len(team) // 3)
+    return float(team[column].iloc[-n:].mean())
+
+
+def final_positions(run: RunData) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The robots' and the targets' rows at their last recorded step."""
+    robots = run.robots[run.robots["step"] == run.robots["step"].max()]
+    targets = run.targets[run.targets["step"] == run.targets["step"].max()]
+    return robots, targets
+
+
+def stragglers(robots: pd.DataFrame, targets: pd.DataFrame, distance: float) -> int:
+    """Robots that can sense (``sensing_ok``) but are farther than ``distance`` from every
+    target (true positions ``x, y`` of the given rows)."""
+    able = robots[robots["sensing_ok"].astype(bool)]
+    if able.empty or targets.empty:
+        return 0
+    gaps = np.hypot(
+        able["x"].to_numpy()[:, None] - targets["x"].to_numpy()[None, :],
+        able["y"].to_numpy()[:, None] - targets["y"].to_numpy()[None, :],
+    )
+    return int((gaps.min(axis=1) > distance).sum())
+
+
+def robots_lost(events: pd.DataFrame) -> int:
+    """Robots whose sensor or radio a permanent zone destroyed (attack events marked so)."""
+    if events.empty:
+        return 0
+    lost = events[
+        (events["event"] == "attack") & events["detail"].astype(str).str.contains("permanent")
+    ]
+    return int(lost["robot"].nunique())
+
+
 def summarise_run(run: RunData) -> dict[str, Any]:
     team, events = run.team, run.events
     attacks = attack_table(run)
     n_robots = int(run.robots["robot"].nunique())
     tags = run.manifest.get("tags", {}) or {}
+    robots_end, targets_end = final_positions(run)
     fallbacks = events["event"] == "solver_fallback" if len(events) else pd.Series(dtype=bool)
     return {
         "experiment": run.manifest.get("experiment", ""),
@@ -35,11 +76,15 @@ def summarise_run(run: RunData) -> dict[str, Any]:
         "trace": float(team["trace"].mean()),
         "mse": float(team["mse"].mean()),
         "final_trace": float(team["trace"].iloc[-1]),
+        "last_third_trace": last_third_mean(team),
         "effort": float(team["effort"].mean()),
         "sensing_attacks": int((attacks["kind"] == "sensing").sum()),
         "comm_attacks": int((attacks["kind"] == "comm").sum()),
         "robots_attacked": int(attacks["robot"].nunique()),
+        "robots_lost": robots_lost(events),
         "sensing_failed_end": int(team["n_sensing_failed"].iloc[-1]),
+        "sensing_end": int(robots_end["sensing_ok"].astype(bool).sum()),
+        "stragglers": stragglers(robots_end, targets_end, STRAGGLER_DISTANCE),
         "survival_steps": survival_steps(team, n_robots),
         "zones_inferred": int((events["event"] == "zone_inferred").sum()) if len(events) else 0,
         "solver_failures": int(team["n_solver_failures"].sum())

@@ -1,0 +1,136 @@
+"""Numbers of the generalization benchmark, computed from its summary table.
+
+The summary has one row per run (``summary.summarise_run``) with the tags the catalog gives the
+generated arms: ``tag_scenario``, ``tag_method`` (the policy) and ``tag_no_zones`` (the
+failure-aware run of the same scenario with ``zones: []``). Every comparison pairs runs of the
+same scenario and seed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.stats import binomtest
+
+POLICIES = ("failure_aware", "vanilla", "sog")
+
+
+@dataclass(frozen=True)
+class Proportion:
+    """``k`` of ``n`` with its Wilson score interval."""
+
+    k: int
+    n: int
+    low: float
+    high: float
+
+    @property
+    def rate(self) -> float:
+        return self.k / self.n if self.n else float("nan")
+
+    def __str__(self) -> str:
+        if not self.n:
+            return "0/0"
+        return f"{self.k}/{self.n} = {self.rate:.0%} (95 % CI {self.low:.0%}–{self.high:.0%})"
+
+
+def wilson(k: int, n: int, confidence: float = 0.95) -> Proportion:
+    """``k`` successes in ``n`` trials with the Wilson score interval of the proportion."""
+    if n == 0:
+        return Proportion(0, 0, float("nan"), float("nan"))
+    ci = binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
+    return Proportion(k, n, float(ci.low), float(ci.high))
+
+
+def _with_zones(summary: pd.DataFrame) -> pd.DataFrame:
+    if "tag_no_zones" not in summary:
+        return summary
+    return summary[~summary["tag_no_zones"].astype(bool)]
+
+
+def paired(summary: pd.DataFrame, metric: str, policies: tuple[str, str]) -> pd.DataFrame:
+    """``metric`` of two policies side by side, one row per (scenario, seed) that ran both."""
+    rows = _with_zones(summary)
+    wide = rows.pivot_table(index=["tag_scenario", "seed"], columns="policy", values=metric)
+    missing = [p for p in policies if p not in wide]
+    return wide.iloc[:0, :0] if missing else wide[list(policies)].dropna()
+
+
+def win_rate(
+    summary: pd.DataFrame, metric: str, against: str = "vanilla", policy: str = "failure_aware"
+) -> Proportion:
+    """Share of scenarios in which ``policy`` has the lower mean ``metric`` than ``against``."""
+    wide = paired(summary, metric, (policy, against))
+    if wide.empty:
+        return wilson(0, 0)
+    return wilson(int((wide[policy] < wide[against]).sum()), len(wide))
+
+
+def nozone_ratios(summary: pd.DataFrame, policy: str = "failure_aware") -> pd.Series:
+    """Per scenario: last-third trace ÷ the same of its zone-free run (same policy, seed)."""
+    rows = summary[summary["policy"] == policy]
+    wide = rows.pivot_table(
+        index=["tag_scenario", "seed"], columns="tag_no_zones", values="last_third_trace"
+    )
+    if True not in wide or False not in wide:
+        return pd.Series(dtype=float)
+    return (wide[False] / wide[True]).dropna()
+
+
+def straggler_share(summary: pd.DataFrame, policy: str = "failure_aware") -> Proportion:
+    """Stragglers among the robots that can still sense at the end, over the suite's runs."""
+    rows = _with_zones(summary)
+    rows = rows[rows["policy"] == policy]
+    return wilson(int(rows["stragglers"].sum()), int(rows["sensing_end"].sum()))
+
+
+def _quantiles(values: pd.Series) -> str:
+    if values.empty:
+        return "no pairs"
+    return (
+        f"median {values.median():.2f}×, 90th percentile {np.percentile(values, 90):.2f}×, "
+        f"worst {values.max():.2f}× (over {len(values)} scenarios)"
+    )
+
+
+def section(summary: pd.DataFrame) -> str:
+    """The benchmark's tables in markdown."""
+    lines = ["| comparison | lower mean trace | lower mean MSE |", "|---|---|---|"]
+    for other in ("vanilla", "sog"):
+        trace, mse = win_rate(summary, "trace", other), win_rate(summary, "mse", other)
+        if trace.n:
+            lines.append(f"| failure_aware vs {other} | {trace} | {mse} |")
+    ratios = {policy: nozone_ratios(summary, policy) for policy in POLICIES}
+    ratio_lines = [f"- {p}: {_quantiles(r)}" for p, r in ratios.items() if not r.empty] or [
+        "- no zone-free runs"
+    ]
+    lost = [
+        "| policy | runs | robots | robots lost (sensor or radio destroyed) | robots attacked "
+        "| robots sensing at the end | stragglers (> 1.5 m from every target) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    no_zones = summary.get("tag_no_zones", pd.Series(False, index=summary.index)).astype(bool)
+    groups: list[tuple[str, pd.DataFrame]] = [
+        (p, summary[~no_zones & (summary["policy"] == p)]) for p in POLICIES
+    ]
+    groups.append(("failure_aware, zones removed", summary[no_zones]))
+    for label, r in groups:
+        if r.empty:
+            continue
+        robots = int(r["robots"].sum())
+        lost.append(
+            f"| {label} | {len(r)} | {robots} | {wilson(int(r.robots_lost.sum()), robots)} "
+            f"| {wilson(int(r.robots_attacked.sum()), robots)} | {int(r.sensing_end.sum())} "
+            f"| {wilson(int(r.stragglers.sum()), int(r.sensing_end.sum()))} |"
+        )
+    return "\n\n".join(
+        [
+            "**Win rates** (share of scenarios, Wilson 95 % interval)\n\n" + "\n".join(lines),
+            "**Last-third trace ÷ the zone-free run's** (same policy and seed)\n\n"
+            + "\n".join(ratio_lines),
+            "**Robots lost and stragglers** (shares of robots; stragglers among those that can "
+            "still sense at the end)\n\n" + "\n".join(lost),
+        ]
+    )

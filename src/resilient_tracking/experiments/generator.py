@@ -1,0 +1,231 @@
+"""Random scenarios of the paper's family for the generalization benchmark (docs/generalization.md).
+
+A generated scenario looks like the shipped ones: a team of drones starts behind a group of
+ground targets that move to the east across an 10 m × 8 m workspace for 30 s, and unknown
+danger zones lie where the team will meet them. What varies: 3–8 robots, 3–8 targets, each
+target's motion (every kind of the scenario format: ``constant_velocity``, ``waypoints``,
+``circle`` and ``ncv``), and 1–3 zones of mixed kinds (sensing, comm), persistences (temporary,
+permanent) and placements relative to a target's route:
+
+- ``on``: centred on the route, where the target is at a time of the run;
+- ``beside``: 0.3–0.6 m to the side of the route at that time;
+- ``ahead``: 0.6–1.0 m in front of the target along its heading at that time: on the route of
+  a straight lane, on the outside of the bend of a turning one.
+
+Where a target will be is found by advancing its scripted motion (``world.targets``); an
+``ncv`` target is advanced without its noise, along its mean path. A zone's placement is
+written into its ``name`` (``on-0``, ``beside-1``…) so runs and tests can group by it.
+
+Hazard intensities are chosen from a peak attack rate per step at the zone's centre, drawn in
+the range of the shipped scenarios: for a gaussian hazard the peak is
+``κ f_act dt / (2π √det Σ)`` (paper eq. 1 at ``x = μ``), so ``κ = peak · 2π √det Σ / (f_act dt)``.
+
+All randomness comes from the ``generator`` stream of :mod:`resilient_tracking.rng`, drawn in
+order, so a suite is a pure function of its seed and ``suite(seed, n)`` is the first ``n``
+scenarios of any longer suite of the same seed.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from resilient_tracking.rng import stream
+from resilient_tracking.scenario import Scenario, TargetSpec, parse_scenario
+from resilient_tracking.world.targets import TargetTruth
+
+#: Seed of the fixed suite the ``generalization`` experiment runs.
+SUITE_SEED = 2024
+DT = 0.1
+STEPS = 300
+WORKSPACE = {"xmin": -5.0, "xmax": 5.0, "ymin": -4.0, "ymax": 4.0}
+#: A target's (mean) path keeps this far inside the workspace.
+PATH_MARGIN = 0.6
+MOTIONS = ("constant_velocity", "waypoints", "circle", "ncv")
+PLACEMENTS = ("on", "beside", "ahead")
+#: Peak attack rate per step at a zone's centre (the shipped scenarios use 0.1–0.2).
+PEAK_RANGE = (0.1, 0.2)
+#: Targets' speed (m/s); the shipped scenarios use 0.18.
+SPEED_RANGE = (0.13, 0.22)
+#: A zone is placed where a target is at a time in this window (s), so the team meets it.
+MEET_WINDOW = (5.0, 20.0)
+
+
+def mean_path(spec: TargetSpec, steps: int = STEPS, dt: float = DT) -> np.ndarray:
+    """Positions ``(steps + 1, 2)`` of a target's scripted motion (an ``ncv`` one without noise)."""
+    data = spec.model_dump()
+    if data["motion"]["type"] == "ncv":
+        data["motion"]["accel_std"] = 0.0
+    truth = TargetTruth(TargetSpec.model_validate(data))
+    rng = np.random.default_rng(0)  # unused: the mean path draws nothing
+    out = [truth.position.copy()]
+    for _ in range(steps):
+        truth.step(dt, rng)
+        out.append(truth.position.copy())
+    return np.array(out)
+
+
+def _inside(points: np.ndarray, margin: float) -> bool:
+    ws = WORKSPACE
+    return bool(
+        (points[:, 0] >= ws["xmin"] + margin).all()
+        and (points[:, 0] <= ws["xmax"] - margin).all()
+        and (points[:, 1] >= ws["ymin"] + margin).all()
+        and (points[:, 1] <= ws["ymax"] - margin).all()
+    )
+
+
+def _motion(kind: str, start: np.ndarray, rng: np.random.Generator) -> dict[str, Any]:
+    """A motion of ``kind`` for a target starting at ``start``, heading east."""
+    speed = rng.uniform(*SPEED_RANGE)
+    heading = rng.uniform(-0.35, 0.35)  # rad: straight or diagonal lanes
+    velocity = [speed * math.cos(heading), speed * math.sin(heading)]
+    if kind == "constant_velocity":
+        return {"type": "constant_velocity", "velocity": velocity}
+    if kind == "ncv":
+        return {"type": "ncv", "velocity": velocity, "accel_std": rng.uniform(0.005, 0.01)}
+    if kind == "circle":
+        radius = rng.uniform(0.5, 1.2)
+        angle = rng.uniform(-math.pi / 3, math.pi / 3)
+        center = start + radius * np.array([math.cos(angle), math.sin(angle)])
+        sign = 1.0 if rng.random() < 0.5 else -1.0
+        return {
+            "type": "circle",
+            "center": center.tolist(),
+            "angular_speed": sign * speed / radius,
+        }
+    # waypoints: a lane that bends 1–3 times on its way east
+    length = speed * STEPS * DT * rng.uniform(0.85, 1.0)
+    n_bends = int(rng.integers(1, 4))
+    xs = start[0] + length * np.arange(1, n_bends + 2) / (n_bends + 1)
+    ys = start[1] + math.tan(heading) * (xs - start[0])
+    ys[:-1] += rng.uniform(-0.6, 0.6, n_bends)
+    points = [[float(x), float(y)] for x, y in zip(xs, ys, strict=True)]
+    return {"type": "waypoints", "points": points, "speed": speed}
+
+
+def _targets(n: int, rng: np.random.Generator) -> list[dict[str, Any]]:
+    half_width = min(2.6, rng.uniform(0.35, 0.55) * (n - 1))
+    lanes = np.linspace(-half_width, half_width, n) + rng.uniform(-1.0, 1.0) * 0.3
+    x0 = rng.uniform(-3.8, -3.0)
+    out = []
+    for y in lanes:
+        start = np.array([x0 + rng.uniform(0.0, 0.6), y + rng.uniform(-0.1, 0.1)])
+        kind = MOTIONS[int(rng.integers(len(MOTIONS)))]
+        spec = None
+        for _ in range(50):  # redraw a motion whose mean path leaves the workspace
+            data = {"start": start.tolist(), "motion": _motion(kind, start, rng)}
+            margin = PATH_MARGIN + (0.5 if kind == "ncv" else 0.0)  # room for the noise
+            if _inside(mean_path(TargetSpec.model_validate(data)), margin):
+                spec = data
+                break
+        if spec is None:  # a straight lane always fits
+            spec = {
+                "start": start.tolist(),
+                "motion": {"type": "constant_velocity", "velocity": [0.15, 0.0]},
+            }
+        out.append(spec)
+    return out
+
+
+def _robots(n: int, targets: list[dict[str, Any]], rng: np.random.Generator) -> list[dict]:
+    """Robots in a column behind (west of) the westernmost target, across the targets' lanes."""
+    starts = np.array([t["start"] for t in targets])
+    x = max(starts[:, 0].min() - rng.uniform(0.3, 0.7), WORKSPACE["xmin"] + 0.2)
+    ys = np.linspace(starts[:, 1].min(), starts[:, 1].max(), n) + rng.uniform(-0.1, 0.1, n)
+    ys = np.clip(ys, WORKSPACE["ymin"] + 0.2, WORKSPACE["ymax"] - 0.2)
+    return [{"start": [float(x), float(y)]} for y in ys]
+
+
+def _zone(
+    index: int,
+    paths: list[np.ndarray],
+    taken: list[np.ndarray],
+    robot_starts: np.ndarray,
+    rng: np.random.Generator,
+) -> dict[str, Any]:
+    kind = "sensing" if rng.random() < 0.5 else "comm"
+    persistence = "temporary" if rng.random() < 0.5 else "permanent"
+    placement = PLACEMENTS[int(rng.integers(len(PLACEMENTS)))]
+    mu = None
+    for _ in range(100):  # redraw until the centre is clear of the robots and other zones
+        path = paths[int(rng.integers(len(paths)))]
+        k = int(rng.integers(int(MEET_WINDOW[0] / DT), int(MEET_WINDOW[1] / DT)))
+        step = path[k + 1] - path[k - 1]
+        heading = step / max(float(np.linalg.norm(step)), 1e-9)
+        if placement == "on":
+            candidate = path[k] + rng.uniform(-0.1, 0.1, 2)
+        elif placement == "beside":
+            side = 1.0 if rng.random() < 0.5 else -1.0
+            candidate = path[k] + side * rng.uniform(0.3, 0.6) * np.array([-heading[1], heading[0]])
+        else:
+            candidate = path[k] + rng.uniform(0.6, 1.0) * heading
+        clear_of_robots = np.linalg.norm(robot_starts - candidate, axis=1).min() > 1.5
+        clear_of_zones = all(np.linalg.norm(candidate - other) > 1.0 for other in taken)
+        if clear_of_robots and clear_of_zones and _inside(candidate[None], 0.5):
+            mu = candidate
+            break
+    if mu is None:
+        mu = paths[0][int(MEET_WINDOW[1] / DT)]  # the first route late in the run
+    taken.append(mu)
+    # Σ = R diag(s1², s2²) Rᵀ: 0.22–0.6 m spread, up to 1.5 : 1 elongation
+    s1 = rng.uniform(0.22, 0.6)
+    s2 = s1 * rng.uniform(1 / 1.5, 1.0)
+    theta = rng.uniform(0, math.pi)
+    rot = np.array([[math.cos(theta), -math.sin(theta)], [math.sin(theta), math.cos(theta)]])
+    sigma = rot @ np.diag([s1**2, s2**2]) @ rot.T
+    sigma = (sigma + sigma.T) / 2
+    peak = rng.uniform(*PEAK_RANGE)
+    kappa = peak * 2 * math.pi * math.sqrt(np.linalg.det(sigma)) / DT  # f_act = 1
+    zone: dict[str, Any] = {
+        "name": f"{placement}-{index}",
+        "kind": kind,
+        "mu": [float(mu[0]), float(mu[1])],
+        "sigma": [[float(v) for v in row] for row in sigma],
+        "persistence": persistence,
+        "hazard": {"model": "gaussian", "f_act": 1.0, "kappa": round(float(kappa), 4)},
+    }
+    if kind == "sensing":
+        zone["radius"] = round(float(math.sqrt(s1 * s2) * rng.uniform(0.9, 1.3)), 3)
+    else:
+        zone["delta2"] = round(float(rng.uniform(0.1, 0.3)), 3)
+    return zone
+
+
+def generate(rng: np.random.Generator, name: str) -> Scenario:
+    """One scenario of the family, drawn from ``rng``."""
+    n_robots = int(rng.integers(3, 9))
+    n_targets = int(rng.integers(3, 9))
+    targets = _targets(n_targets, rng)
+    robots = _robots(n_robots, targets, rng)
+    paths = [mean_path(TargetSpec.model_validate(t)) for t in targets]
+    robot_starts = np.array([r["start"] for r in robots])
+    taken: list[np.ndarray] = []
+    zones = [_zone(i, paths, taken, robot_starts, rng) for i in range(int(rng.integers(1, 4)))]
+    kinds = sorted({z["kind"] for z in zones})
+    data = {
+        "name": name,
+        "description": (
+            f"Generated: {n_robots} robots, {n_targets} targets "
+            f"({', '.join(sorted({t['motion']['type'] for t in targets}))}), "
+            f"{len(zones)} {'/'.join(kinds)} zone(s) "
+            f"({', '.join(z['name'] + ' ' + z['persistence'] for z in zones)})."
+        ),
+        "seed": 1,
+        "dt": DT,
+        "steps": STEPS,
+        "workspace": dict(WORKSPACE),
+        "robots": robots,
+        "targets": targets,
+        "zones": zones,
+        "policy": {"name": "failure_aware"},
+    }
+    return parse_scenario(data, name)
+
+
+def suite(seed: int = SUITE_SEED, n: int = 60) -> list[Scenario]:
+    """The first ``n`` scenarios drawn from ``seed``, named ``g00``, ``g01``…"""
+    rng = stream(seed, "generator")
+    return [generate(rng, f"g{i:02d}") for i in range(n)]

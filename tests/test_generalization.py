@@ -1,0 +1,185 @@
+"""The generalization benchmark: generator, suite, its statistics and its targets."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from resilient_tracking.experiments.catalog import (
+    QUICK_MAX_PAIRS,
+    SUITE_SIZE,
+    catalog,
+    generalization_cases,
+    tasks,
+)
+from resilient_tracking.experiments.claims import check
+from resilient_tracking.experiments.generalization import (
+    nozone_ratios,
+    section,
+    straggler_share,
+    wilson,
+    win_rate,
+)
+from resilient_tracking.experiments.generator import (
+    MOTIONS,
+    PEAK_RANGE,
+    PLACEMENTS,
+    mean_path,
+    suite,
+)
+from resilient_tracking.experiments.summary import last_third_mean, stragglers
+from resilient_tracking.scenario import parse_scenario
+
+
+@pytest.fixture(scope="module")
+def full_suite():
+    return suite(n=SUITE_SIZE)
+
+
+def test_same_seed_same_suite_and_a_suite_is_a_prefix_of_a_longer_one():
+    first = [s.model_dump() for s in suite(seed=5, n=4)]
+    assert first == [s.model_dump() for s in suite(seed=5, n=4)]
+    assert first[:2] == [s.model_dump() for s in suite(seed=5, n=2)]
+    assert first != [s.model_dump() for s in suite(seed=6, n=4)]
+
+
+def test_every_suite_scenario_is_valid_and_in_the_papers_family(full_suite):
+    assert len(full_suite) == SUITE_SIZE >= 60
+    assert len({s.name for s in full_suite}) == len(full_suite)
+    for s in full_suite:
+        assert parse_scenario(s.model_dump(mode="json"), s.name) == s
+        assert 3 <= len(s.robots) <= 8 and 3 <= len(s.targets) <= 8 and 1 <= len(s.zones) <= 3
+        ws = s.workspace
+        paths = [mean_path(t, s.steps, s.dt) for t in s.targets]
+        for path in paths:
+            assert (path >= ws.lower).all() and (path <= ws.upper).all(), s.name
+        # robots start behind (west of) every target
+        assert max(r.start[0] for r in s.robots) < min(t.start[0] for t in s.targets), s.name
+        for z in s.zones:
+            assert ws.contains(z.mu), s.name
+            # the peak attack rate per step at the centre: κ f_act dt / (2π √det Σ)
+            peak = z.hazard.kappa * z.hazard.f_act * s.dt / (2 * math.pi)
+            peak /= math.sqrt(np.linalg.det(np.array(z.sigma)))
+            assert PEAK_RANGE[0] - 1e-3 <= peak <= PEAK_RANGE[1] + 1e-3, (s.name, z.name, peak)
+            # a team that follows its targets meets the zone: within 1 m of a route
+            gap = min(np.linalg.norm(p - np.array(z.mu), axis=1).min() for p in paths)
+            assert gap <= 1.0 + 1e-9, (s.name, z.name, gap)
+
+
+def test_the_suite_covers_every_motion_zone_kind_persistence_and_placement(full_suite):
+    seen = Counter()
+    for s in full_suite:
+        seen.update(t.motion.type for t in s.targets)
+        seen.update(z.kind for z in s.zones)
+        seen.update(z.persistence for z in s.zones)
+        seen.update(z.name.split("-")[0] for z in s.zones)
+        seen.update({"all-sensing"} if all(z.kind == "sensing" for z in s.zones) else set())
+    for key in (*MOTIONS, "sensing", "comm", "temporary", "permanent", *PLACEMENTS):
+        assert seen[key] >= 5, (key, seen)
+    assert seen["all-sensing"] >= 5  # SOG runs on these
+    assert {len(s.robots) for s in full_suite} == set(range(3, 9))
+    assert {len(s.targets) for s in full_suite} == set(range(3, 9))
+
+
+def test_experiment_arms_sog_only_where_every_zone_senses_and_a_zone_free_twin():
+    quick = catalog(quick=True)["generalization"]
+    todo = tasks(quick)
+    assert len({t.run_id for t in todo}) == len(todo)
+    cases = generalization_cases(4, QUICK_MAX_PAIRS)
+    assert all(len(s.robots) * len(s.targets) <= QUICK_MAX_PAIRS for s, _ in cases)
+    for t in todo:
+        name = t.variant.tags["scenario"]
+        original = next(s for s, _ in cases if s.name == name)
+        assert t.scenario.policy.name == t.variant.policy
+        assert t.scenario.robots == original.robots and t.scenario.targets == original.targets
+        assert t.scenario.zones == ([] if t.variant.tags["no_zones"] else original.zones)
+        if t.variant.policy == "sog":
+            assert all(z.kind == "sensing" for z in original.zones)
+    assert {t.variant.policy for t in todo} == {"failure_aware", "vanilla", "sog"}
+
+
+def test_wilson_interval_matches_published_values():
+    # Newcombe (1998), Statistics in Medicine 17:857, Table I, method 3 (Wilson score)
+    for k, n, low, high in [
+        (81, 263, 0.2553, 0.3662),
+        (15, 148, 0.0624, 0.1605),
+        (0, 20, 0.0, 0.1611),
+        (1, 29, 0.0061, 0.1718),
+    ]:
+        p = wilson(k, n)
+        assert (round(p.low, 4), round(p.high, 4)) == (low, high), (k, n, p)
+    assert math.isnan(wilson(0, 0).rate)
+
+
+def test_stragglers_are_sensing_robots_far_from_every_target():
+    robots = pd.DataFrame(
+        {
+            "x": [0.0, 3.0, 3.0, -1.4],
+            "y": [0.0, 0.0, 0.0, 0.0],
+            "sensing_ok": [True, True, False, True],
+        }
+    )
+    targets = pd.DataFrame({"x": [0.5, 0.0], "y": [0.0, 0.0]})
+    # robot 1 is 2.5 m from the nearest target; robot 2 is as far but cannot sense;
+    # robot 3 is 1.4 m from target 1
+    assert stragglers(robots, targets, 1.5) == 1
+    assert stragglers(robots, targets, 3.0) == 0
+    assert stragglers(robots.iloc[:0], targets, 1.5) == 0
+
+
+def test_last_third_mean_is_over_the_final_third():
+    team = pd.DataFrame({"trace": [9.0, 9.0, 9.0, 9.0, 1.0, 3.0]})
+    assert last_third_mean(team) == 2.0
+    assert last_third_mean(team.iloc[:2]) == 9.0
+
+
+def _summary():
+    """Three scenarios: failure-aware wins twice in trace, once in MSE."""
+    rows = []
+    for name, fa, va, nz, stray in [
+        ("g00", (1.0, 1.0), (2.0, 0.5), 0.5, 0),
+        ("g01", (1.0, 1.0), (3.0, 0.5), 0.25, 1),
+        ("g02", (4.0, 1.0), (2.0, 3.0), 4.0, 0),
+    ]:
+        base = {"tag_scenario": name, "seed": 1, "robots": 3, "robots_lost": 0}
+        rows += [
+            {**base, "policy": "failure_aware", "tag_no_zones": False, "trace": fa[0],
+             "mse": fa[1], "last_third_trace": fa[0], "sensing_end": 4, "stragglers": stray,
+             "robots_attacked": 1},
+            {**base, "policy": "vanilla", "tag_no_zones": False, "trace": va[0], "mse": va[1],
+             "last_third_trace": va[0], "sensing_end": 1, "stragglers": 0,
+             "robots_attacked": 2},
+            {**base, "policy": "failure_aware", "tag_no_zones": True, "trace": nz, "mse": nz,
+             "last_third_trace": nz, "sensing_end": 3, "stragglers": 3, "robots_attacked": 0},
+        ]  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_win_rates_ratios_and_straggler_share_on_a_tiny_table():
+    s = _summary()
+    assert (win_rate(s, "trace").k, win_rate(s, "trace").n) == (2, 3)
+    assert (win_rate(s, "mse").k, win_rate(s, "mse").n) == (1, 3)
+    assert win_rate(s, "trace", against="sog").n == 0
+    ratios = nozone_ratios(s)
+    assert sorted(ratios.tolist()) == [1.0, 2.0, 4.0]
+    share = straggler_share(s)  # the zone-free runs' stragglers do not count
+    assert (share.k, share.n) == (1, 12)
+    text = section(s)
+    assert "2/3 = 67%" in text and "median 2.00×" in text
+    assert "| failure_aware, zones removed | 3 | 9 | 0/9 = 0%" in text
+
+
+def test_targets_hold_or_fail_as_the_numbers_say():
+    exp = catalog(quick=True)["generalization"]
+    verdict = [c.holds for c in check(exp, _summary())]
+    assert verdict == [False, False, True]  # 67 % trace wins, 33 % MSE wins, 1/12 stragglers
+    winning = _summary()
+    winning.loc[winning.tag_scenario == "g02", "trace"] = [1.0, 2.0, 1.0]
+    winning.loc[winning.policy == "vanilla", "mse"] = 5.0
+    assert [c.holds for c in check(exp, winning)] == [True, True, True]
+    winning["stragglers"] = 2
+    assert [c.holds for c in check(exp, winning)] == [True, True, False]
