@@ -9,8 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from resilient_tracking.planning.goals import RouteParams, assign, keep_out_discs, route_rows
+from resilient_tracking.planning.goals import assign, keep_out_discs, route_rows
 from resilient_tracking.planning.route import SIDES, RouteMap, segment_distances
+from resilient_tracking.scenario import RouteSpec
 
 BOX = (np.array([-10.0, -10.0]), np.array([10.0, 10.0]))
 
@@ -125,7 +126,7 @@ def test_route_rows_pull_only_robots_that_sense() -> None:
         u_max=np.ones(2),
         w_effort=0.05,
         dt=0.1,
-        params=RouteParams(speed=0.8, reach=0.7),
+        params=RouteSpec(speed=0.8, reach=0.7),
     )
     assert rows[1, 3] == 0.0
     assert rows[0, 3] == pytest.approx(2 * 0.05 * 0.8 / 0.1)

@@ -18,29 +18,16 @@ where it stands; far away the pull is a constant force ``c_i`` along the route, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from resilient_tracking.planning.league_problem import ROUTE_COLUMNS
 from resilient_tracking.planning.route import RouteMap
+from resilient_tracking.scenario import RouteSpec
 
 #: Resolution (m) of the teammate distance in a comm zone's keep-out disc.
 PAIR_STEP = 0.25
-#: Columns of a route row: waypoint x, y, offset ``L − reach``, weight ``c``.
-ROUTE_COLUMNS = 4
-
-
-@dataclass(frozen=True)
-class RouteParams:
-    #: speed (fraction of ``u_max``) at which the pull alone would move a far robot
-    speed: float = 0.8
-    #: route length (m) to the goal within which a robot feels no pull
-    reach: float = 0.7
-    #: at most this many seconds of target motion between a goal and its target's estimate
-    lookahead: float = 3.0
-    #: extra route length (m) charged to the k-th robot assigned to one target, per k
-    spread: float = 0.5
 
 
 def keep_out_discs(sensing_rows: np.ndarray, comm_rows: np.ndarray, pair: float) -> np.ndarray:
@@ -87,7 +74,7 @@ def route_rows(
     u_max: np.ndarray,
     w_effort: float,
     dt: float,
-    params: RouteParams,
+    params: RouteSpec,
 ) -> np.ndarray:
     """Route rows ``(waypoint x, y, offset, weight)`` per robot; robots that cannot sense get
     weight 0 (no tracking to go to)."""

@@ -70,6 +70,10 @@ SPREAD_EPS = 1e-9
 SENSING_COLUMNS = 7
 #: Columns of a comm-zone row: mu(2), sigma xx/xy/yy, delta2, beta2, clearance.
 COMM_COLUMNS = 8
+#: Smoothing (m) of the route program's distance and hinge.
+ROUTE_EPS = 0.2
+#: Columns of a route row: waypoint x, y, offset, weight (:mod:`~.goals`).
+ROUTE_COLUMNS = 4
 #: Curvature put on the slack variables in the SQP's Hessian (they enter linearly).
 SLACK_CURVATURE = 1e-6
 
@@ -79,12 +83,27 @@ METHODS = ("sqp", "ipopt")
 
 @dataclass(frozen=True)
 class Structure:
-    """What changes the symbolic problem: sizes only."""
+    """What changes the symbolic problem: sizes, and the planner program.
+
+    ``route`` adds the route program's cost-to-go term (one :data:`ROUTE_COLUMNS` row of
+    parameters per robot, see :mod:`resilient_tracking.planning.goals`); ``standoff`` is the
+    distance regularisation (m) of the information model, :data:`PLAN_EPS` in the paper's
+    one-step program.
+    """
 
     n_robots: int
     n_targets: int
     n_sensing_zones: int = 0
     n_comm_zones: int = 0
+    route: bool = False
+    standoff: float = PLAN_EPS
+
+    @property
+    def label(self) -> str:
+        """A short name for compiled code and logs."""
+        sizes = f"{self.n_robots}x{self.n_targets}_{self.n_sensing_zones}s{self.n_comm_zones}c"
+        route = f"_route{round(self.standoff * 1000)}mm" if self.route else ""
+        return f"league_{sizes}{route}"
 
     @property
     def n_vars(self) -> int:
@@ -122,6 +141,8 @@ class ProblemInputs:
     u_upper: np.ndarray  # (n, 2)
     sensing_zones: np.ndarray  # (L, 7): mu(2), sigma xx/xy/yy, r_safe, beta1
     comm_zones: np.ndarray  # (K, 8): mu(2), sigma xx/xy/yy, delta2, beta2, clearance
+    #: (n, 4) route rows (waypoint x, y, offset, weight) of the route program, else None
+    route: np.ndarray | None = None
 
 
 # ---------------------------------------------------------------------------- model pieces
@@ -136,10 +157,12 @@ def _quad(a: Any, sxx: Any, sxy: Any, syy: Any) -> Any:
     return a[0] * a[0] * sxx + 2 * a[0] * a[1] * sxy + a[1] * a[1] * syy
 
 
-def measurement_information(x: Any, p: Any, sensor: Any) -> tuple[Any, Any, Any]:
+def measurement_information(
+    x: Any, p: Any, sensor: Any, eps: float = PLAN_EPS
+) -> tuple[Any, Any, Any]:
     """Entries (xx, xy, yy) of ``Hᵀ R⁻¹ H`` for a range-bearing sensor at ``x`` seeing ``p``."""
     delta = p - x
-    d2 = ca.sumsqr(delta) + PLAN_EPS**2
+    d2 = ca.sumsqr(delta) + eps**2
     d = ca.sqrt(d2)
     info_r = sensor[0] * ca.exp(-sensor[1] * d) / d2  # range row is δᵀ/d
     info_b = sensor[2] * ca.exp(-sensor[3] * d) / (d2 * d2)  # bearing row is [−δy, δx]/d²
@@ -171,7 +194,7 @@ def comm_margin(xp: Any, xq: Any, z: Any) -> Any:
     return dist - z[5] * pair - z[7] - z[6] * spread
 
 
-def _info_pieces(xp: Any, p: Any, sensor: Any) -> tuple[Any, Any, Any]:
+def _info_pieces(xp: Any, p: Any, sensor: Any, eps: float = PLAN_EPS) -> tuple[Any, Any, Any]:
     """``m = (xx, xy, yy)`` of :func:`measurement_information`, its Jacobian ``∂m/∂x`` (3×2)
     and its Hessians (3×3: row ``r`` holds ``∂²m_r/∂x²`` as ``[xx, xy, yy]``), by hand.
 
@@ -180,7 +203,7 @@ def _info_pieces(xp: Any, p: Any, sensor: Any) -> tuple[Any, Any, Any]:
     ``v_r = (δx², δxδy, δy²)`` and ``v_b = (δy², −δxδy, δx²)``.
     """
     dx, dy = p[0] - xp[0], p[1] - xp[1]
-    rho = dx * dx + dy * dy + PLAN_EPS**2
+    rho = dx * dx + dy * dy + eps**2
     root = ca.sqrt(rho)
     v = {"r": (dx * dx, dx * dy, dy * dy), "b": (dy * dy, -dx * dy, dx * dx)}
     # ∂v/∂δx, ∂v/∂δy and the constant second derivatives (xx, xy, yy)
@@ -219,7 +242,14 @@ def _keep_out(xp: Any, z: Any, offset: Any, beta: Any) -> Any:
     return dist - offset - beta * spread
 
 
-def _piece_functions() -> dict[str, ca.Function]:
+def _route_pull(xp: Any, row: Any) -> Any:
+    """The route program's cost-to-go of one robot (see :mod:`~.goals`): ``c · hinge(‖x⁺ −
+    w‖ + offset)`` with ``hinge(e) = (e + √(e² + ε²)) / 2``, ``row = (w_x, w_y, offset, c)``."""
+    e = ca.sqrt(ca.sumsqr(xp - row[0:2]) + ROUTE_EPS**2) + row[2]
+    return row[3] * 0.5 * (e + ca.sqrt(e * e + ROUTE_EPS**2))
+
+
+def _piece_functions(standoff: float = PLAN_EPS) -> dict[str, ca.Function]:
     """Small SX functions with the derivatives of each piece of the NLP (CSE applied)."""
     sx = ca.SX.sym
 
@@ -227,7 +257,7 @@ def _piece_functions() -> dict[str, ca.Function]:
         return ca.Function(name, inputs, ca.cse(outputs))
 
     xp, p, sensor = sx("xp", 2), sx("p", 2), sx("sensor", 4)
-    info = function("info", [xp, p, sensor], list(_info_pieces(xp, p, sensor)))
+    info = function("info", [xp, p, sensor], list(_info_pieces(xp, p, sensor, standoff)))
     abc = sx("abc", 3)
     f = trace_of_inverse(abc[0], abc[1], abc[2])
     hess_f, grad_f = ca.hessian(f, abc)
@@ -240,7 +270,18 @@ def _piece_functions() -> dict[str, ca.Function]:
     xq = sx("xq", 2)
     pair = ca.sqrt(ca.sumsqr(xp - xq) + PLAN_EPS**2)
     pair_fn = function("pair", [xp, xq], [pair, ca.gradient(pair, xp), ca.hessian(pair, xp)[0]])
-    return {"info": info, "trace": trace, "keep_out": keep_out, "pair": pair_fn}
+    row = sx("route", ROUTE_COLUMNS)
+    pull = _route_pull(xp, row)
+    route = function(
+        "route", [xp, row], [pull, ca.gradient(pull, xp), ca.hessian(pull, xp)[0]]
+    )
+    return {
+        "info": info,
+        "trace": trace,
+        "keep_out": keep_out,
+        "pair": pair_fn,
+        "route": route,
+    }
 
 
 # ---------------------------------------------------------------------------- the problem
@@ -299,6 +340,9 @@ class LeagueNLP:
         czones = sx("czones", COMM_COLUMNS, nk)
         self.x = x = ca.veccat(u, nu, xi)
         parameters = [x0, sense, targets, prior, w, sensor, dt, szones, czones]
+        if s.route:
+            route_rows = sx("route", ROUTE_COLUMNS, n)
+            parameters.append(route_rows)
         if slots:
             # one-hot (or, for an unused slot, zero) columns: slot s of robot i is column
             # i·S + s; teammates are numbered without robot i
@@ -309,7 +353,7 @@ class LeagueNLP:
         self.p = p = ca.veccat(*parameters)
         self.n_params = int(p.shape[0])
         self.n_vars = nx = int(x.shape[0])
-        pieces = _piece_functions()
+        pieces = _piece_functions(s.standoff)
         xp = x0 + u * dt
         xps = [xp[:, i] for i in range(n)]
 
@@ -343,9 +387,15 @@ class LeagueNLP:
                 grad_xp[i] = grad_xp[i] + ca.mtimes(jacs[i].T, g_j)
                 own[i] = own[i] + sense[i] * _sym2(ca.mtimes(parts[i][2].T, g_j))
         f = w[0] * track + w[1] * ca.sumsqr(u)
+        # the route program's cost-to-go: its gradient and curvature w.r.t. x⁺, per robot
+        pulls = [pieces["route"](xps[i], route_rows[:, i]) for i in range(n)] if s.route else []
+        for pull in pulls:
+            f = f + pull[0]
         grad = [ca.SX(0)] * nx
         for i in range(n):
             gi = w[0] * dt * grad_xp[i] + 2 * w[1] * u[:, i]
+            if pulls:
+                gi = gi + dt * pulls[i][1]
             grad[iu(i)], grad[iu(i) + 1] = gi[0], gi[1]
         if slots:  # a slot's slack costs only if the slot is in use (its column sums to 1)
             nu_cost = [ca.sum1(ssel[:, c]) for c in range(n * n_nu)]
@@ -447,6 +497,8 @@ class LeagueNLP:
         lam_f = sx("lam_f")
         lam_g = sx("lam_g", ng)
         diag_rest = [lam_f * w[0] * own[i] for i in range(n)]
+        for i, pull in enumerate(pulls):
+            diag_rest[i] = diag_rest[i] + lam_f * pull[2]
         for r, i, curv in row_own:
             diag_rest[i] = diag_rest[i] + lam_g[r] * curv
         # −δ2 ∇²‖x_i − x_q‖ on [x_i, x_q] is −curv ⊗ [[1, −1], [−1, 1]]; keyed by q ≥ i. With
@@ -866,8 +918,7 @@ class LeagueProblem:
         key = (name, self._sqp_hessian)
         if key not in nlp.jobs:
             s = self.structure
-            label = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c"
-            nlp.jobs[key] = codegen.compile_functions(self._functions(method), f"{label}_{name}")
+            nlp.jobs[key] = codegen.compile_functions(self._functions(method), f"{s.label}_{name}")
         return nlp.jobs[key]
 
     def _call(self, method: str) -> _BufferedCall:
@@ -901,7 +952,7 @@ class LeagueProblem:
         if method not in (*METHODS, "sqp_slots"):
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
         s = self.structure
-        name = f"league_{s.n_robots}x{s.n_targets}_{s.n_sensing_zones}s{s.n_comm_zones}c_{method}"
+        name = f"{s.label}_{method}"
         opts: dict[str, Any] = dict(COMMON_OPTIONS)
         # f and g symbolic: CasADi derives its own helpers (never called here) from them
         nlp: Any = self._nlp(method).nlp
@@ -944,6 +995,10 @@ class LeagueProblem:
             q.sensing_zones.reshape(-1, SENSING_COLUMNS).T,
             q.comm_zones.reshape(-1, COMM_COLUMNS).T,
         ]
+        if self.structure.route:
+            if q.route is None:
+                raise ValueError("route: the route program needs route rows")
+            parts.append(q.route.reshape(-1, ROUTE_COLUMNS).T)
         return np.concatenate([np.asarray(p, dtype=float).ravel(order="F") for p in parts])
 
     def bounds(self, q: ProblemInputs) -> tuple[np.ndarray, np.ndarray]:

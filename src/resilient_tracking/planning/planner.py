@@ -31,6 +31,7 @@ from resilient_tracking.planning.league_problem import (
     ProblemInputs,
     Structure,
 )
+from resilient_tracking.scenario import PlannerSpec, RouteSpec
 
 log = logging.getLogger(__name__)
 
@@ -183,16 +184,29 @@ class SolverLadder:
 
 class LeaguePlanner(SolverLadder):
     """The ladder over the league problems of docs/model.md §5; ``options`` are passed to every
-    :class:`LeagueProblem`."""
+    :class:`LeagueProblem`.
+
+    ``route`` selects the planner program: ``None`` for the paper's one-step program, else
+    the route program with these parameters (policies then add route rows to their inputs,
+    see :mod:`resilient_tracking.planning.goals`).
+    """
 
     def __init__(
         self,
         solver: str = "ladder",
         fault_hook: FaultHook | None = None,
         options: dict[str, Any] | None = None,
+        route: RouteSpec | None = None,
     ):
         super().__init__(solver, fault_hook)
         self.options = options
+        self.route = route
+
+    @classmethod
+    def from_spec(cls, spec: PlannerSpec, fault_hook: FaultHook | None = None) -> LeaguePlanner:
+        """The planner a scenario's ``planner`` section asks for."""
+        route = spec.route if spec.program == "route" else None
+        return cls(spec.solver, fault_hook=fault_hook, route=route)
 
     #: ≈ 160 MB of symbolic code and solvers: four 20×20 structures, hundreds of 3×3 ones
     PROBLEM_BUDGET = NLP_BUDGET

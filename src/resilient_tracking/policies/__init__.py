@@ -20,7 +20,7 @@ def make_policy(
 
     ``planner`` replaces the scenario's :class:`LeaguePlanner` (e.g. one with a fault hook).
     """
-    planner = planner or LeaguePlanner(scenario.planner.solver)
+    planner = planner or LeaguePlanner.from_spec(scenario.planner)
     if name == "vanilla":
         return VanillaPolicy(config, scenario.policy.vanilla, planner)
     if name == "failure_aware":

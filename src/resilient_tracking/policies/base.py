@@ -11,13 +11,16 @@ import numpy as np
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.goals import keep_out_discs, route_rows
 from resilient_tracking.planning.league_problem import (
     COMM_COLUMNS,
+    PLAN_EPS,
     SENSING_COLUMNS,
     ProblemInputs,
     Structure,
 )
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
+from resilient_tracking.planning.route import RouteMaps
 from resilient_tracking.planning.safe_action import safe_action
 from resilient_tracking.team_config import TeamConfig
 
@@ -48,6 +51,8 @@ class Policy(ABC):
     def __init__(self, config: TeamConfig, planner: LeaguePlanner | None = None):
         self.config = config
         self.planner = planner or LeaguePlanner()
+        #: route maps of the known keep-out regions, reused while knowledge is unchanged
+        self.route_maps = RouteMaps(config.lower, config.upper)
 
     @abstractmethod
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision: ...
@@ -65,10 +70,27 @@ class Policy(ABC):
         sensing_zones: np.ndarray | None = None,
         comm_zones: np.ndarray | None = None,
     ) -> ProblemInputs:
-        no_zones = np.zeros((0, SENSING_COLUMNS)), np.zeros((0, COMM_COLUMNS))
-        """Numeric inputs of a league problem: predicted targets, bounds, zones."""
+        """Numeric inputs of a league problem: predicted targets, bounds, zones, and with the
+        route program each robot's route row."""
+        sensing_zones = np.zeros((0, SENSING_COLUMNS)) if sensing_zones is None else sensing_zones
+        comm_zones = np.zeros((0, COMM_COLUMNS)) if comm_zones is None else comm_zones
         predicted = belief.ekf.predict(belief.estimates[league])
         lower, upper = self.config.velocity_bounds(robots, obs.positions)
+        route = None
+        if self.planner.route is not None:
+            positions = obs.positions[robots]
+            discs = keep_out_discs(sensing_zones, comm_zones, _mean_spacing(positions))
+            route = route_rows(
+                positions,
+                sensing,
+                predicted.mean[:, :2],
+                predicted.mean[:, 2:4],
+                self.route_maps.get(discs),
+                self.config.u_max[robots],
+                float(weights[1]),
+                self.config.dt,
+                self.planner.route,
+            )
         return ProblemInputs(
             positions=obs.positions[robots],
             sensing=sensing.astype(float),
@@ -79,8 +101,9 @@ class Policy(ABC):
             dt=self.config.dt,
             u_lower=lower,
             u_upper=upper,
-            sensing_zones=no_zones[0] if sensing_zones is None else sensing_zones,
-            comm_zones=no_zones[1] if comm_zones is None else comm_zones,
+            sensing_zones=sensing_zones,
+            comm_zones=comm_zones,
+            route=route,
         )
 
     def solve(
@@ -97,6 +120,8 @@ class Policy(ABC):
             n_targets=len(q.targets),
             n_sensing_zones=len(q.sensing_zones),
             n_comm_zones=len(q.comm_zones),
+            route=q.route is not None,
+            standoff=self.planner.route.standoff if self.planner.route else PLAN_EPS,
         )
         try:
             result = self.planner.plan(structure, tuple(robots), q)
@@ -125,3 +150,12 @@ class Policy(ABC):
                 )
         decision.plans.append(result)
         return controls
+
+
+def _mean_spacing(positions: np.ndarray) -> float:
+    """Mean distance (m) from each robot to its nearest teammate (0 for a robot alone)."""
+    if len(positions) < 2:
+        return 0.0
+    gaps = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=2)
+    np.fill_diagonal(gaps, np.inf)
+    return float(np.mean(gaps.min(axis=1)))

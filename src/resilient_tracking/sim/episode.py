@@ -61,7 +61,7 @@ def build_team(
 ) -> Team:
     """The team of an episode: policy, planner and the seeded prior around ``initial_targets``."""
     config = TeamConfig.from_scenario(scenario)
-    planner = LeaguePlanner(scenario.planner.solver, fault_hook=fault_hook)
+    planner = LeaguePlanner.from_spec(scenario.planner, fault_hook=fault_hook)
     policy_obj = make_policy(policy_name, scenario, config, planner)
     return Team(policy_obj, prior_estimate(scenario, initial_targets, seed))
 
