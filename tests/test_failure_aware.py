@@ -147,7 +147,9 @@ def test_weights_move_toward_safe_while_robots_stay_attacked():
 
 def circling_scenario(infer: bool):
     """Robot 0 starts on a comm jammer that destroys its radio at step 10; the targets
-    later lead its teammates across that zone."""
+    later lead its teammates across that zone. Robot 0 lingers there, far from every target,
+    as the paper's one-step program lets it (the route program heads for a target at once
+    and would leave the jammer before its first activation tick)."""
     fit = {} if infer else {"min_samples": 10_000, "window": 10_000}
     guess = {} if infer else {"silence_std": 0.0}
     slow = {"type": "waypoints", "speed": 0.25}
@@ -160,6 +162,7 @@ def circling_scenario(infer: bool):
         ],
         zones=[disk_comm_zone([0.0, 0.0], "permanent")],
         policy={"name": "failure_aware", "failure_aware": {"circle_fit": fit, **guess}},
+        planner={"program": "one_step"},
     )
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -103,6 +105,56 @@ def test_structured_derivatives_equal_automatic_differentiation(shape):
                 np.testing.assert_allclose(block, hess[2 * i : 2 * i + 2, 2 * i : 2 * i + 2])
         off = ~np.kron(np.eye(n, dtype=bool), np.ones((2, 2), dtype=bool))
         np.testing.assert_allclose(clipped[: 2 * n, : 2 * n][off], hess[: 2 * n, : 2 * n][off])
+
+
+def with_route(q: ProblemInputs, seed: int) -> ProblemInputs:
+    """``q`` with route rows: waypoints around the robots, offsets on both sides of the hinge."""
+    rng = np.random.default_rng(seed)
+    n = len(q.positions)
+    rows = np.column_stack(
+        [
+            q.positions + rng.uniform(-1, 1, (n, 2)),
+            rng.uniform(-1, 1, n),
+            rng.uniform(0, 2, n),
+        ]
+    )
+    return replace(q, route=rows)
+
+
+@pytest.mark.parametrize("shape", [(1, 2, 1, 0), (3, 3, 1, 1), (2, 3, 0, 2)])
+def test_route_program_derivatives_equal_automatic_differentiation(shape):
+    n, big_n, nl, nk = shape
+    q = with_route(inputs(n, big_n, seed=n, sensing_zones=nl, comm_zones=nk), seed=n)
+    structure = replace(structure_of(q), route=True, standoff=0.2)
+    nlp = LeagueNLP(structure)
+    reference = automatic_derivatives(nlp)
+    pv = LeagueProblem(structure).pack_params(q)
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        xv = rng.uniform(-1, 1, structure.n_vars)
+        check_derivatives(nlp, reference, xv, pv, rng.uniform(-3, 1, nlp.n_constraints))
+
+
+def test_route_rows_pull_a_far_robot_along_its_route():
+    """Far from every target, the one-step program barely moves; the route program heads for
+    the waypoint at about the speed its weight is set for."""
+    q = inputs(1, 1, seed=0, sensing_zones=0, comm_zones=0)
+    # a well-tracked target (5 cm), 8 m away: one more measurement is worth little
+    q = replace(
+        q,
+        positions=np.array([[-4.0, 0.0]]),
+        targets=np.array([[4.0, 0.0]]),
+        prior_info=np.eye(2)[None] * 400.0,
+    )
+    speed = 0.8
+    weight = 2 * q.weights[1] * speed / q.dt
+    routed = replace(q, route=np.array([[0.0, 3.0, 5.0, weight]]))
+    plain = LeagueProblem(structure_of(q)).solve(q, method="ipopt")[0]["x"][:2]
+    structure = replace(structure_of(q), route=True, standoff=0.2)
+    pulled = LeagueProblem(structure).solve(routed, method="ipopt")[0]["x"][:2]
+    assert np.linalg.norm(plain) < 0.2
+    heading = np.array([4.0, 3.0]) / 5.0
+    assert np.dot(pulled, heading) == pytest.approx(speed, abs=0.1)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
