@@ -232,6 +232,9 @@ def test_temporary_comm_failure_plans_alone_recovers_rejoins_and_merges():
         robots=[{"start": [0.0, 0.0]}, {"start": [-2.0, 1.0]}, {"start": [-2.0, -1.0]}],
         targets=[{"start": [-1.0, 0.0], "motion": STILL}],
         zones=[disk_comm_zone([0.0, 0.0], "temporary")],
+        # robot 0 lingers on the jammer, 1 m from the target, as the one-step program lets it
+        # (the route program would head for the target before the first activation tick)
+        planner={"program": "one_step"},
     )
     result = run_episode(s, seed=1)
     events, robots, knowledge = result["events"], result["robots"], result["knowledge"]
@@ -258,6 +261,10 @@ def test_two_leagues_plan_jointly_and_independently():
     s = scenario(
         steps=40,
         comm_range=2.0,
+        # the one-step program keeps the two leagues apart; under the route program each
+        # league, not knowing the other covers the far target, sends a robot to it and the
+        # leagues merge
+        planner={"program": "one_step"},
         robots=[
             {"start": [-3.0, 0.5]},
             {"start": [-3.0, -0.5]},
