@@ -42,7 +42,18 @@ def tables_of(out, task):
 
 def test_catalog_has_every_experiment_of_spec_section_6_with_its_seed_counts():
     full = catalog()
-    assert set(full) == {*SIX, "bench-risk", "bench-scale", "bench-complex", "generalization"}
+    paper = {*SIX, "bench-risk", "bench-scale", "bench-complex"}
+    assert set(full) == {*paper, *(f"{n}-route" for n in paper), "generalization"}
+    # the paper's experiments on its one-step program, then the same arms and seeds on the route
+    for name in paper:
+        route = full[f"{name}-route"]
+        assert full[name].program == "one_step" and route.program == "route"
+        assert route.seeds == full[name].seeds
+        assert [v.label for v in route.variants] == [v.label for v in full[name].variants]
+        for one, other in zip(full[name].variants, route.variants, strict=True):
+            assert one.overrides["planner.program"] == "one_step"
+            assert other.overrides["planner.program"] == "route"
+            assert scenario_for(full[name], one).planner.program == "one_step"
     assert all(full[n].seeds == 10 for n in SIX)
     assert full["bench-scale"].seeds == 5
     cells = {(v.tags["robots"], v.tags["targets"]) for v in full["bench-scale"].variants}

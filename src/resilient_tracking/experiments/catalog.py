@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -66,6 +66,9 @@ class Experiment:
     #: generated scenarios instead of a file: returns (scenario, its variants) pairs, and
     #: ``scenario`` and ``variants`` above are unused
     generated: Callable[[], list[tuple[Scenario, tuple[Variant, ...]]]] | None = None
+    #: the planner program its runs use ("one_step": the paper's; "route": the default;
+    #: "": the scenarios' own setting)
+    program: str = ""
 
     def seed_list(self, n: int | None = None) -> list[int]:
         return list(range(1, (n or self.seeds) + 1))
@@ -217,11 +220,39 @@ def generalization_cases(
 
 SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm")
 
+#: Suffix of the experiments that repeat the paper's on the route program.
+ROUTE_SUFFIX = "-route"
+
+
+def on_program(experiment: Experiment, program: str) -> Experiment:
+    """``experiment`` with every arm on one planner program; the route program's copy is named
+    with :data:`ROUTE_SUFFIX` and runs the same seeds. (SOG plans with its own program, so its
+    arms are the same in both.)"""
+    variants = tuple(
+        replace(v, overrides={**v.overrides, "planner.program": program})
+        for v in experiment.variants
+    )
+    if program == "one_step":
+        return replace(
+            experiment,
+            variants=variants,
+            program=program,
+            description=experiment.description + " (the paper's one-step program)",
+        )
+    return replace(
+        experiment,
+        name=experiment.name + ROUTE_SUFFIX,
+        variants=variants,
+        program=program,
+        description=experiment.description + " (repeated on the route program, the default)",
+    )
+
 
 def catalog(quick: bool = False) -> dict[str, Experiment]:
-    """Every experiment of docs/model.md §8 by name; ``quick`` is the CI-sized version."""
-    experiments = [_pair(name, 2 if quick else 10) for name in SIX]
-    experiments += [
+    """Every experiment of docs/model.md §8 by name, on the paper's one-step program, then the
+    same on the route program, then the generalization benchmark; ``quick`` is the CI size."""
+    paper = [_pair(name, 2 if quick else 10) for name in SIX]
+    paper += [
         Experiment(
             "bench-risk",
             "bench-risk",
@@ -248,6 +279,10 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             description="three sensing zones along the path, 600 steps, three risk levels",
             variants=_risk_variants(),
         ),
+    ]
+    experiments = [on_program(e, "one_step") for e in paper]
+    experiments += [on_program(e, "route") for e in paper]
+    experiments += [
         Experiment(
             "generalization",
             "",

@@ -159,20 +159,52 @@ def _source_revision() -> str:
     return f" (commit {done.stdout.strip()})" if done.returncode == 0 else ""
 
 
+#: Headline groups of the report: (experiment program or kind, how the line names them).
+GROUPS = (
+    ("one_step", "claims hold with the paper's one-step program"),
+    ("route", "claims hold with the route program (the default planner)"),
+    ("generalization", "generalization-benchmark targets hold (not claims of the paper)"),
+)
+
+
+def _group(exp: Experiment) -> str:
+    return "generalization" if exp.kind == "generalization" else exp.program or "one_step"
+
+
+def _headline(label: str, claims: list[Claim], short: bool) -> str:
+    failing = [c for c in claims if not c.holds]
+    line = f"**{sum(c.holds for c in claims)} of {len(claims)} {label}.**"
+    if short:
+        line += (
+            " *Indicative only: some experiments ran fewer seeds than the protocol "
+            "(`--quick` or `--seeds`), so a claim may hold or fail by chance.*"
+        )
+    if failing:
+        line += " Not holding: " + "; ".join(
+            f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing
+        )
+    return line
+
+
 def write_report(
     experiments: list[Experiment], tasks: dict[str, list[Task]], out: Path, command: str
 ) -> Path:
     """Write ``out/report.md`` (atomically) for the experiments' stored runs."""
-    sections, claims, targets = [], [], []
+    sections: list[str] = []
+    claims: dict[str, list[Claim]] = defaultdict(list)
+    short: dict[str, bool] = defaultdict(bool)
     for exp in experiments:
         text, found = experiment_section(exp, tasks[exp.name], out)
         sections.append(text)
-        if exp.kind == "generalization":
-            targets += found
-        else:
-            claims += found
-    held = sum(c.holds for c in claims)
-    failing = [c for c in claims if not c.holds]
+        claims[_group(exp)] += found
+        short[_group(exp)] |= _group(exp) != "generalization" and _is_short(
+            exp, tasks[exp.name], out
+        )
+    headlines = [
+        _headline(label, claims[group], short[group])
+        for group, label in GROUPS
+        if claims.get(group)
+    ]
     lines = [
         "# Reproduction report",
         "",
@@ -181,39 +213,7 @@ def write_report(
         f"{casadi.CasadiMeta.version()}, Python {platform.python_version()} on "
         f"{platform.machine()} ({os.cpu_count()} cores).",
         "",
-        *(
-            [
-                f"**{held} of {len(claims)} claims hold.**"
-                + (
-                    " *Indicative only: some experiments ran fewer seeds than the protocol "
-                    "(`--quick` or `--seeds`), so a claim may hold or fail by chance.*"
-                    if any(
-                        _is_short(e, tasks[e.name], out)
-                        for e in experiments
-                        if e.kind != "generalization"
-                    )
-                    else ""
-                )
-                + (
-                    ""
-                    if not failing
-                    else " Not holding: "
-                    + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in failing)
-                ),
-                "",
-            ]
-            if claims or not targets  # a run of the generalization benchmark alone has none
-            else []
-        ),
-        *(
-            [
-                f"**Generalization benchmark: {sum(c.holds for c in targets)} of {len(targets)} "
-                "targets hold** (not claims of the paper; see its section).",
-                "",
-            ]
-            if targets
-            else []
-        ),
+        *[line for h in headlines for line in (h, "")],
         "In the tables, `a ± b` is the mean over seeds of the run's time-averaged value, and "
         "`b` the standard deviation across seeds (population, not a confidence interval); "
         "failures and survival are means over seeds, solver failures a total. Bands in the "
