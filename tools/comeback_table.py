@@ -5,6 +5,7 @@ Usage (from the repository root)::
 
     python tools/comeback_table.py                   # seeds 1..10
     python tools/comeback_table.py --seeds 101-110   # seeds nobody tuned on
+    python tools/comeback_table.py --programs route --set planner.route.standoff=0.1
 
 Columns, each a mean over seeds: the last-third ratio (mean trace over the final third of the
 episode ÷ the same for the same seed with ``zones: []``), the time-averaged trace and MSE of
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 
 import pandas as pd
+import yaml
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.compare import compare
@@ -33,9 +35,9 @@ def seed_range(text: str) -> list[int]:
     return [int(s) for s in text.split(",")]
 
 
-def runs(program: str, seeds: list[int], jobs: int) -> pd.DataFrame:
+def runs(program: str, seeds: list[int], jobs: int, extra: dict[str, object]) -> pd.DataFrame:
     paths = [scenarios.folder() / f"{n}.yaml" for n in SIX]
-    program_only = {"planner.program": program}
+    program_only = {"planner.program": program, **extra}
     both = compare(paths, ["failure_aware", "vanilla"], seeds, jobs, program_only)
     free = compare(paths, ["failure_aware"], seeds, jobs, {**program_only, "zones": []})
     return pd.concat([both.assign(zones=True), free.assign(zones=False)], ignore_index=True)
@@ -60,9 +62,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="1-10", help="'1-10' or '1,2,3'")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--programs", default="one_step,route")
+    parser.add_argument(
+        "--set", action="append", default=[], help="dotted.path=value (YAML), repeatable"
+    )
     args = parser.parse_args()
     seeds = seed_range(args.seeds)
-    found = {p: runs(p, seeds, args.jobs) for p in ("one_step", "route")}
+    extra = {k: yaml.safe_load(v) for k, v in (item.split("=", 1) for item in args.set)}
+    found = {p: runs(p, seeds, args.jobs, extra) for p in args.programs.split(",")}
     print(f"seeds {seeds[0]}..{seeds[-1]} ({len(seeds)})\n")
     print(
         "| scenario | program | last third ÷ no-zone (FA) | trace FA / VA | MSE FA / VA "
