@@ -13,7 +13,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.planning.league_problem import ProblemInputs
+from resilient_tracking.planning.layout import ProblemInputs
 
 EPS = 0.05  # the same distance regularisation as the planner's model
 

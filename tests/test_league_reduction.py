@@ -11,15 +11,11 @@ import numpy as np
 import pytest
 
 from resilient_tracking.planning import codegen
-from resilient_tracking.planning.league_problem import (
-    SLOTS,
-    LeagueNLP,
-    LeagueProblem,
-    ProblemInputs,
-    Slots,
-    Structure,
-    reduced_slots,
-)
+from resilient_tracking.planning.layout import ProblemInputs, Slots, Structure
+from resilient_tracking.planning.league_problem import LeagueProblem
+from resilient_tracking.planning.nlp import LeagueNLP
+from resilient_tracking.planning.reduction import reduced_slots
+from resilient_tracking.planning.solver_options import SLOTS
 from test_planner import automatic_derivatives, check_derivatives, league_inputs, structure_of
 
 

@@ -8,12 +8,9 @@ import pytest
 
 from resilient_tracking.planning import codegen
 from resilient_tracking.planning.adaptation import chance_margin
-from resilient_tracking.planning.league_problem import (
-    LeagueNLP,
-    LeagueProblem,
-    ProblemInputs,
-    Structure,
-)
+from resilient_tracking.planning.layout import ProblemInputs, Structure
+from resilient_tracking.planning.league_problem import LeagueProblem
+from resilient_tracking.planning.nlp import LeagueNLP
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.scenario import ScenarioError, parse_scenario
 

@@ -25,12 +25,10 @@ from typing import Any
 import numpy as np
 
 from resilient_tracking.planning.cache import LruCache
-from resilient_tracking.planning.league_problem import (
-    NLP_BUDGET,
-    LeagueProblem,
-    ProblemInputs,
-    Structure,
-)
+from resilient_tracking.planning.layout import ProblemInputs, Structure
+from resilient_tracking.planning.league_problem import LeagueProblem
+from resilient_tracking.planning.nlp_cache import NLP_BUDGET
+from resilient_tracking.planning.solver_options import ProblemOptions
 
 log = logging.getLogger(__name__)
 
@@ -189,10 +187,11 @@ class LeaguePlanner(SolverLadder):
         self,
         solver: str = "ladder",
         fault_hook: FaultHook | None = None,
-        options: dict[str, Any] | None = None,
+        options: ProblemOptions | dict[str, Any] | None = None,
     ):
         super().__init__(solver, fault_hook)
-        self.options = options
+        #: checked here, before any episode runs: an unknown key is an error naming it
+        self.options = ProblemOptions.of(options)
 
     #: ≈ 160 MB of symbolic code and solvers: four 20×20 structures, hundreds of 3×3 ones
     PROBLEM_BUDGET = NLP_BUDGET

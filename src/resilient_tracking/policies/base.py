@@ -11,12 +11,7 @@ import numpy as np
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.planning.league_problem import (
-    COMM_COLUMNS,
-    SENSING_COLUMNS,
-    ProblemInputs,
-    Structure,
-)
+from resilient_tracking.planning.layout import ProblemInputs, comm_table, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 from resilient_tracking.planning.safe_action import safe_action
 from resilient_tracking.team_config import TeamConfig
@@ -65,7 +60,6 @@ class Policy(ABC):
         sensing_zones: np.ndarray | None = None,
         comm_zones: np.ndarray | None = None,
     ) -> ProblemInputs:
-        no_zones = np.zeros((0, SENSING_COLUMNS)), np.zeros((0, COMM_COLUMNS))
         """Numeric inputs of a league problem: predicted targets, bounds, zones."""
         predicted = belief.ekf.predict(belief.estimates[league])
         lower, upper = self.config.velocity_bounds(robots, obs.positions)
@@ -75,12 +69,12 @@ class Policy(ABC):
             targets=predicted.mean[:, :2],
             prior_info=np.linalg.inv(predicted.cov[:, :2, :2]),
             weights=weights,
-            sensor=self.config.sensor_params,
+            sensor=self.config.sensor.parameters,
             dt=self.config.dt,
             u_lower=lower,
             u_upper=upper,
-            sensing_zones=no_zones[0] if sensing_zones is None else sensing_zones,
-            comm_zones=no_zones[1] if comm_zones is None else comm_zones,
+            sensing_zones=sensing_table() if sensing_zones is None else sensing_zones,
+            comm_zones=comm_table() if comm_zones is None else comm_zones,
         )
 
     def solve(
@@ -92,14 +86,8 @@ class Policy(ABC):
         :func:`~resilient_tracking.planning.safe_action.safe_action`: escape a known zone whose
         constraint they violate, else hold. Every fallback is an event per robot.
         """
-        structure = Structure(
-            n_robots=len(robots),
-            n_targets=len(q.targets),
-            n_sensing_zones=len(q.sensing_zones),
-            n_comm_zones=len(q.comm_zones),
-        )
         try:
-            result = self.planner.plan(structure, tuple(robots), q)
+            result = self.planner.plan(q.structure(), tuple(robots), q)
         except Exception as err:  # the ladder must hold even if the planner breaks
             log.warning("league %s: planner raised %s: %s", robots, type(err).__name__, err)
             result = PlanResult(
