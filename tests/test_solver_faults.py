@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector, InjectedSolverFault
 from resilient_tracking.planning.layout import ProblemInputs, comm_table, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
