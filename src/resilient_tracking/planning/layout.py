@@ -6,7 +6,12 @@ a parameter of the NLP says so with :func:`parameter`: how many numbers it has p
 target, per known zone or once per problem. :class:`ParameterLayout` packs the numeric values
 (:meth:`ParameterLayout.pack`) and makes the matching CasADi symbols
 (:meth:`ParameterLayout.symbols`) in the order of the fields, so a new per-robot input (a route
-waypoint, a cost-to-go weight) is one new field here and one use in the NLP.
+waypoint, a cost-to-go weight) is one new field here and one use in the NLP::
+
+    waypoints: np.ndarray | None = field(default=None, metadata=parameter("robot", 2, "waypoint"))
+
+(an input left at None is packed as zeros; ``LeagueNLP`` reads the symbol as
+``self.params["waypoints"]``, a ``2 × n`` SX).
 
 Zone rows and weights are tables whose columns are named by :class:`SensingRow`,
 :class:`CommRow` and :class:`Weight`; nothing outside this module indexes them by number.
@@ -239,7 +244,9 @@ class ParameterLayout:
         parts = []
         for block in PARAMETERS:
             value = getattr(q, block.name)
-            if block.columns is not None:
+            if value is None:  # an optional input left out: zeros
+                value = np.zeros((q.structure().count(block.per), block.size))
+            elif block.columns is not None:
                 value = block.columns(value)
             parts.append(np.asarray(value, dtype=float).reshape(-1, block.size).ravel())
         return np.concatenate(parts)
