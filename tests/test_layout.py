@@ -69,3 +69,16 @@ def test_known_options_are_taken():
     assert options.codegen is False and options.slots is None
     assert options.qpsol_options() == {"verbose": False}
     assert ProblemOptions.of(None).qpsol_options()["printLevel"] == "none"
+
+
+def test_an_input_left_at_none_is_packed_as_zeros():
+    """How an optional per-robot input (issue 12's waypoints, say) can be added in one line."""
+    q = inputs(n=3, big_n=2)
+    packed = ParameterLayout.pack(q)
+    q.sensing = None
+    without = ParameterLayout.pack(q)
+    n = len(q.positions)
+    np.testing.assert_array_equal(without[2 * n : 3 * n], np.zeros(n))
+    np.testing.assert_array_equal(
+        np.delete(without, range(2 * n, 3 * n)), np.delete(packed, range(2 * n, 3 * n))
+    )
