@@ -22,7 +22,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from benchmarks.common import SCENARIOS, SHIPPED, machine, save, table
-from resilient_tracking.planning.league_problem import wait_for_compilers
+from resilient_tracking.planning.nlp_cache import wait_for_compilers
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.sim import episode

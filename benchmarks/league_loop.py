@@ -10,22 +10,26 @@ so the chance constraints bind while the team tracks targets through them.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from resilient_tracking.models.sensor import RangeBearingSensor
 from resilient_tracking.planning.adaptation import chance_margin
-from resilient_tracking.planning.league_problem import (
-    COMM_COLUMNS,
-    PLAN_EPS,
-    SENSING_COLUMNS,
+from resilient_tracking.planning.layout import (
     ProblemInputs,
     Structure,
+    comm_row,
+    comm_table,
+    sensing_row,
+    sensing_table,
 )
+from resilient_tracking.planning.safe_action import constraint_margins
 
 DT = 0.1
 U_MAX = 1.0
-SENSOR = np.array([15.0, 0.2, 15.0, 0.2])
+SENSOR_MODEL = RangeBearingSensor(15.0, 0.2, 15.0, 0.2)
+SENSOR = SENSOR_MODEL.parameters
 #: failure-aware defaults (scenario.FailureAwareParams): risky and cool-down weights
 RISKY = np.array([50.0, 0.05, 200.0, 100.0])
 COOLDOWN = np.array([40.0, 0.05, 4000.0, 1000.0])
@@ -69,17 +73,8 @@ def _lanes(n: int) -> np.ndarray:
 
 def measurement_information(robots: np.ndarray, targets: np.ndarray) -> np.ndarray:
     """``Hᵀ R⁻¹ H`` (n, N, 2, 2) of each robot for each target, as in the planner's model."""
-    delta = targets[None, :, :] - robots[:, None, :]
-    d2 = (delta**2).sum(-1) + PLAN_EPS**2
-    d = np.sqrt(d2)
-    ir = SENSOR[0] * np.exp(-SENSOR[1] * d) / d2
-    ib = SENSOR[2] * np.exp(-SENSOR[3] * d) / (d2 * d2)
-    dx, dy = delta[..., 0], delta[..., 1]
-    out = np.empty(d.shape + (2, 2))
-    out[..., 0, 0] = ir * dx * dx + ib * dy * dy
-    out[..., 0, 1] = out[..., 1, 0] = (ir - ib) * dx * dy
-    out[..., 1, 1] = ir * dy * dy + ib * dx * dx
-    return out
+    e = SENSOR_MODEL.information(robots[:, None, :], targets[None, :, :])
+    return np.stack([e[..., 0:2], e[..., 1:3]], axis=-2)
 
 
 class LeagueLoop:
@@ -126,11 +121,11 @@ class LeagueLoop:
         clearance = COOLDOWN_CLEARANCE if cooling else 0.0
         c = self.case
         sensing_rows = [
-            [*self.zone_centres[i], 0.2, 0.0, 0.2, 0.4 + clearance, BETA1]
+            sensing_row(self.zone_centres[i], 0.2 * np.eye(2), 0.4 + clearance, BETA1)
             for i in range(c.n_sensing)
         ]
         comm_rows = [
-            [*self.zone_centres[c.n_sensing + i], 0.15, 0.0, 0.15, self.delta2, BETA2, 0.0]
+            comm_row(self.zone_centres[c.n_sensing + i], 0.15 * np.eye(2), self.delta2, BETA2, 0.0)
             for i in range(c.n_comm)
         ]
         x = self.positions
@@ -147,8 +142,8 @@ class LeagueLoop:
             dt=DT,
             u_lower=lower,
             u_upper=upper,
-            sensing_zones=np.array(sensing_rows, dtype=float).reshape(-1, SENSING_COLUMNS),
-            comm_zones=np.array(comm_rows, dtype=float).reshape(-1, COMM_COLUMNS),
+            sensing_zones=sensing_table(sensing_rows),
+            comm_zones=comm_table(comm_rows),
         )
 
     def apply(self, q: ProblemInputs, controls: np.ndarray) -> None:
@@ -165,26 +160,11 @@ class LeagueLoop:
             yield self.inputs()
 
 
-def _spread(xp: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """``√(2 âᵀΣâ)`` for each robot and a zone row ``z``."""
-    d = np.hypot(*(xp - z[:2]).T)
-    a = (z[:2] - xp) / np.maximum(d, 1e-9)[:, None]
-    quad = a[:, 0] ** 2 * z[2] + 2 * a[:, 0] * a[:, 1] * z[3] + a[:, 1] ** 2 * z[4]
-    return np.sqrt(2 * quad)
-
-
 def active_fraction(q: ProblemInputs, controls: np.ndarray, tol: float = 0.05) -> float:
     """Fraction of robots within ``tol`` of (or past) some known zone's keep-out boundary.
 
-    Uses the chance constraints without their slacks (eqs. 7c, 7d).
+    Uses the chance constraints' keep-out margins without their slacks (eqs. 7c, 7d).
     """
-    xp = q.positions + controls * q.dt
-    near = np.zeros(len(xp), dtype=bool)
-    for z in q.sensing_zones:
-        d = np.hypot(*(xp - z[:2]).T)
-        near |= d - z[5] - z[6] * _spread(xp, z) <= tol
-    for z in q.comm_zones:
-        d = np.hypot(*(xp - z[:2]).T)
-        pair = np.sqrt(((xp[:, None] - xp[None]) ** 2).sum(-1)).max(axis=1)
-        near |= d - z[5] * pair - z[7] - z[6] * _spread(xp, z) <= tol
-    return float(near.mean())
+    moved = replace(q, positions=q.positions + controls * q.dt)
+    near = [bool(np.any(constraint_margins(moved, i) <= tol)) for i in range(len(moved.positions))]
+    return float(np.mean(near))

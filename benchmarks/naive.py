@@ -13,7 +13,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.planning.league_problem import ProblemInputs
+from resilient_tracking.planning.layout import CommRow as C
+from resilient_tracking.planning.layout import ProblemInputs, Weight
+from resilient_tracking.planning.layout import SensingRow as S
 
 EPS = 0.05  # the same distance regularisation as the planner's model
 
@@ -55,27 +57,28 @@ def solve(q: ProblemInputs) -> tuple[np.ndarray, dict[str, Any], float]:
                 ixx, ixy, iyy = _info(xp[i], q.targets[j], q.sensor)
                 a, b, c = a + ixx, b + ixy, c + iyy
         trace = trace + (a + c) / (a * c - b * b)
-    cost = w[0] * trace + w[1] * ca.sumsqr(u)
+    cost = w[Weight.TRACKING] * trace + w[Weight.EFFORT] * ca.sumsqr(u)
     if nu is not None:
-        cost += w[2] * ca.sum1(ca.sum2(nu))
+        cost += w[Weight.SENSING_SLACK] * ca.sum1(ca.sum2(nu))
         opti.subject_to(ca.vec(nu) >= 0)
     if xi is not None:
-        cost += w[3] * ca.sum1(ca.sum2(xi))
+        cost += w[Weight.COMM_SLACK] * ca.sum1(ca.sum2(xi))
         opti.subject_to(ca.vec(xi) >= 0)
     opti.minimize(cost)
     for i in range(n):
         opti.subject_to(opti.bounded(q.u_lower[i], u[:, i], q.u_upper[i]))
         for zl, z in enumerate(q.sensing_zones):
-            dist, spread = _spread(xp[i], z[:2], z[2:5])
+            dist, spread = _spread(xp[i], z[S.MEAN], z[S.GAUSSIAN][2:])
             assert nu is not None
-            opti.subject_to(dist - z[5] + nu[zl, i] >= z[6] * spread)
+            opti.subject_to(dist - z[S.R_SAFE] + nu[zl, i] >= z[S.BETA] * spread)
         for zk, z in enumerate(q.comm_zones):
-            dist, spread = _spread(xp[i], z[:2], z[2:5])
+            dist, spread = _spread(xp[i], z[C.MEAN], z[C.GAUSSIAN][2:])
             assert xi is not None
             for j in range(n):
                 if j != i:
                     pair = ca.sqrt(ca.sumsqr(xp[i] - xp[j]) + EPS**2)
-                    opti.subject_to(dist - z[5] * pair - z[7] + xi[zk, i] >= z[6] * spread)
+                    row = dist - z[C.DELTA2] * pair - z[C.CLEARANCE] + xi[zk, i]
+                    opti.subject_to(row >= z[C.BETA] * spread)
     opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes"})
     try:
         sol = opti.solve()

@@ -29,7 +29,8 @@ import numpy as np
 from benchmarks import naive
 from benchmarks.common import IMAGES, machine, save, summary_ms, table
 from benchmarks.league_loop import CASES, LeagueCase, LeagueLoop, active_fraction
-from resilient_tracking.planning.league_problem import LeagueProblem, ProblemInputs
+from resilient_tracking.planning.layout import ProblemInputs
+from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 
 #: steps between two naive solves, per league size (the naive 20×20 takes seconds per step)

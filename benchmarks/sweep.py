@@ -22,8 +22,7 @@ from joblib import Parallel, delayed
 from joblib.externals.loky import get_reusable_executor
 
 from benchmarks.common import SCENARIOS, SHIPPED, machine, save, table
-from resilient_tracking.planning import league_problem
-from resilient_tracking.planning.league_problem import wait_for_compilers
+from resilient_tracking.planning.nlp_cache import nlp_cache, wait_for_compilers
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.sim.episode import run_episode
 
@@ -38,7 +37,7 @@ def one(name: str, seed: int) -> tuple[float, float]:
 def sweep(runs: list[tuple[str, int]], jobs: int) -> tuple[float, list[float], float]:
     """Wall seconds, traces and the episodes' summed CPU seconds of one sweep, started as a
     fresh sweep would: problems not yet built in this process, new worker processes."""
-    league_problem._NLPS.clear()
+    nlp_cache().clear()
     get_reusable_executor().shutdown(wait=True)
     start = time.perf_counter()
     out = Parallel(n_jobs=jobs)(delayed(one)(name, seed) for name, seed in runs)

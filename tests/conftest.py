@@ -1,4 +1,4 @@
-"""Shared fixtures: the shipped scenarios."""
+"""Shared fixtures (helpers shared between test files are in ``helpers.py``)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
-from resilient_tracking import scenarios
-from resilient_tracking.scenario import Scenario, load_scenario
+from helpers import SCENARIOS
 
 #: Hypothesis profiles for tests that do not fix their own number of examples (the hostile-input
 #: properties): "ci" by default, "thorough" for the campaign in docs/reliability.md.
@@ -19,13 +18,6 @@ settings.register_profile(
     "thorough", max_examples=2000, deadline=None, suppress_health_check=_SLOW_OK
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
-
-ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = scenarios.folder()
-
-
-def shipped(name: str) -> Scenario:
-    return load_scenario(scenarios.path(name))
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import resilient_tracking
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.sim.episode import run_episode
 
 PACKAGE = Path(resilient_tracking.__file__).parent

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from helpers import inputs, structure_of
 from resilient_tracking.planning.cache import LruCache
 from resilient_tracking.planning.planner import LeaguePlanner
-from test_planner import inputs, structure_of
 
 
 def test_least_recently_used_entries_beyond_the_budget_are_evicted():

@@ -8,7 +8,7 @@ import shutil
 import pandas as pd
 import yaml
 
-from conftest import SCENARIOS
+from helpers import SCENARIOS
 from resilient_tracking.cli import main
 
 

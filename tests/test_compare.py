@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.comparison import (
     apply_overrides,

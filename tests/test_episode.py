@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import TABLES, ColumnTable, write_run
 

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.belief.circle_fit import fit_circle
 from resilient_tracking.planning.adaptation import adaptive_weights, as_array
 from resilient_tracking.policies import FailureAwarePolicy

@@ -28,7 +28,7 @@ import yaml
 from hypothesis import HealthCheck, assume, currently_in_test_context, event, given, settings
 from hypothesis import strategies as st
 
-from conftest import SCENARIOS
+from helpers import SCENARIOS
 from resilient_tracking.cli import main
 from resilient_tracking.scenario import (
     MAX_ROBOTS,

@@ -10,17 +10,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from helpers import automatic_derivatives, check_derivatives, league_inputs, structure_of
 from resilient_tracking.planning import codegen
-from resilient_tracking.planning.league_problem import (
-    SLOTS,
-    LeagueNLP,
-    LeagueProblem,
+from resilient_tracking.planning.layout import (
     ProblemInputs,
+    SensingRow,
     Slots,
     Structure,
-    reduced_slots,
+    comm_row,
+    sensing_row,
 )
-from test_planner import automatic_derivatives, check_derivatives, league_inputs, structure_of
+from resilient_tracking.planning.league_problem import LeagueProblem
+from resilient_tracking.planning.nlp import LeagueNLP
+from resilient_tracking.planning.reduction import reduced_slots
+from resilient_tracking.planning.solver_options import SLOTS
 
 
 def scene(n: int, big_n: int, nl: int, nk: int, seed: int) -> ProblemInputs:
@@ -31,12 +34,19 @@ def scene(n: int, big_n: int, nl: int, nk: int, seed: int) -> ProblemInputs:
     ys = 0.5 * (np.arange(n) - (n - 1) / 2)
     positions = np.column_stack([np.full(n, -0.5), ys]) + 0.03 * rng.standard_normal((n, 2))
     targets = np.column_stack([np.full(big_n, -0.2), rng.uniform(ys[0], ys[-1], big_n)])
+    cov_s = np.array([[0.03, 0.005], [0.005, 0.03]])
     szones = [
-        [-0.05, ys[(2 * k) % n] + 0.05 * rng.standard_normal(), 0.03, 0.005, 0.03, 0.3, 1.45]
+        sensing_row([-0.05, ys[(2 * k) % n] + 0.05 * rng.standard_normal()], cov_s, 0.3, 1.45)
         for k in range(nl)
     ]
     czones = [
-        [-0.2, ys[(3 + 4 * k) % n] + 0.05 * rng.standard_normal(), 0.02, 0.0, 0.02, 0.05, 0.73, 0.1]
+        comm_row(
+            [-0.2, ys[(3 + 4 * k) % n] + 0.05 * rng.standard_normal()],
+            0.02 * np.eye(2),
+            0.05,
+            0.73,
+            0.1,
+        )
         for k in range(nk)
     ]
     upper = rng.uniform(0.5, 1.0, (n, 2))
@@ -163,7 +173,9 @@ def test_reduced_sqp_gives_the_full_problems_solution(seed):
 
 def test_a_robot_needing_more_slots_gets_the_full_problem():
     q = scene(9, 3, 4, 2, seed=3)
-    q.sensing_zones[:3, :2] = q.positions[4] + np.array([[0.2, 0.0], [0.0, 0.2], [-0.2, 0.0]])
+    q.sensing_zones[:3, SensingRow.MEAN] = q.positions[4] + np.array(
+        [[0.2, 0.0], [0.0, 0.2], [-0.2, 0.0]]
+    )
     problem = LeagueProblem(structure_of(q), options={"slots": Slots(2, 1, 5)})
     assert problem.reduction(q) is None
     sqp, stats = problem.solve(q, method="sqp")

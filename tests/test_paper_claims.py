@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import SCENARIOS
+from helpers import SCENARIOS
 from resilient_tracking.experiments.compare import compare
 
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]

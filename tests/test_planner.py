@@ -4,78 +4,16 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import casadi as ca
 import numpy as np
 import pytest
 
+from helpers import automatic_derivatives, check_derivatives, inputs, structure_of
 from resilient_tracking.planning import codegen
-from resilient_tracking.planning.adaptation import chance_margin
-from resilient_tracking.planning.league_problem import (
-    LeagueNLP,
-    LeagueProblem,
-    ProblemInputs,
-    Structure,
-)
+from resilient_tracking.planning.layout import ProblemInputs
+from resilient_tracking.planning.league_problem import LeagueProblem
+from resilient_tracking.planning.nlp import LeagueNLP
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.scenario import ScenarioError, parse_scenario
-
-
-def inputs(n: int = 3, big_n: int = 3, seed: int = 0, sensing_zones: int = 1, comm_zones: int = 1):
-    """A league near its targets with known zones on their path (constraints near binding)."""
-    rng = np.random.default_rng(seed)
-    positions = np.column_stack([np.full(n, -1.0), np.linspace(-1, 1, n)])
-    positions += 0.1 * rng.standard_normal((n, 2))
-    targets = np.column_stack([np.full(big_n, -0.6), np.linspace(-1, 1, big_n)])
-    targets += 0.1 * rng.standard_normal((big_n, 2))
-    szones = [[0.0, 0.2 * k, 0.2, 0.0, 0.2, 0.5, chance_margin(0.02)] for k in range(sensing_zones)]
-    czones = [
-        [0.1, -0.5 + 0.3 * k, 0.15, 0.0, 0.15, 0.3, chance_margin(0.15), 0.0]
-        for k in range(comm_zones)
-    ]
-    return league_inputs(positions, targets, szones, czones, -np.ones((n, 2)), np.ones((n, 2)))
-
-
-def league_inputs(positions, targets, szones, czones, u_lower, u_upper) -> ProblemInputs:
-    """Inputs with every robot sensing, a common prior, the tests' weights and sensor."""
-    return ProblemInputs(
-        positions=positions,
-        sensing=np.ones(len(positions)),
-        targets=targets,
-        prior_info=np.repeat(np.eye(2)[None] * 3.0, len(targets), axis=0),
-        weights=np.array([50.0, 0.05, 200.0, 100.0]),
-        sensor=np.array([15.0, 0.2, 15.0, 0.2]),
-        dt=0.1,
-        u_lower=u_lower,
-        u_upper=u_upper,
-        sensing_zones=np.array(szones, dtype=float).reshape(-1, 7),
-        comm_zones=np.array(czones, dtype=float).reshape(-1, 8),
-    )
-
-
-def structure_of(q: ProblemInputs) -> Structure:
-    return Structure(len(q.positions), len(q.targets), len(q.sensing_zones), len(q.comm_zones))
-
-
-def automatic_derivatives(nlp: LeagueNLP) -> ca.Function:
-    """∇f, ∂g/∂x and ∇²L by CasADi's automatic differentiation: the reference for ours."""
-    x, p = nlp.x, nlp.p
-    lam_f, lam_g = ca.SX.sym("lf"), ca.SX.sym("lg", nlp.n_constraints)
-    lagrangian = lam_f * nlp.nlp["f"] + ca.dot(lam_g, nlp.nlp["g"])
-    return ca.Function(
-        "ref",
-        [x, p, lam_f, lam_g],
-        [ca.gradient(nlp.nlp["f"], x), ca.jacobian(nlp.nlp["g"], x), ca.hessian(lagrangian, x)[0]],
-    )
-
-
-def check_derivatives(nlp: LeagueNLP, reference: ca.Function, xv, pv, lg) -> np.ndarray:
-    """Our ∇f, ∂g/∂x and ∇²L (λ_f = 0.7) against ``reference`` at one point; the exact ∇²L."""
-    grad, jac, hess = (m.full() for m in reference(xv, pv, 0.7, lg))
-    f = nlp.functions
-    np.testing.assert_allclose(f["grad_f"](xv, pv)[1].full().ravel(), grad.ravel(), atol=1e-9)
-    np.testing.assert_allclose(f["jac_g"](xv, pv)[1].full(), jac, atol=1e-9)
-    np.testing.assert_allclose(f["hess_exact"](xv, pv, 0.7, lg).full(), hess, atol=1e-8)
-    return hess
 
 
 @pytest.mark.parametrize("shape", [(1, 2, 1, 0), (3, 3, 1, 1), (4, 2, 2, 2), (2, 3, 0, 0)])
@@ -108,27 +46,26 @@ def test_structured_derivatives_equal_automatic_differentiation(shape):
 
 
 def with_route(q: ProblemInputs, seed: int) -> ProblemInputs:
-    """``q`` with route rows: waypoints around the robots, offsets on both sides of the hinge."""
+    """``q`` on the route program: random route rows around the robots (offsets on both sides
+    of the hinge) and the route program's information standoff."""
     rng = np.random.default_rng(seed)
     n = len(q.positions)
     rows = np.column_stack(
-        [
-            q.positions + rng.uniform(-1, 1, (n, 2)),
-            rng.uniform(-1, 1, n),
-            rng.uniform(0, 2, n),
-        ]
+        [q.positions + rng.uniform(-1, 1, (n, 2)), rng.uniform(-1, 1, n), rng.uniform(0, 2, n)]
     )
-    return replace(q, route=rows)
+    return replace(q, route=rows, standoff=0.2)
 
 
 @pytest.mark.parametrize("shape", [(1, 2, 1, 0), (3, 3, 1, 1), (2, 3, 0, 2)])
 def test_route_program_derivatives_equal_automatic_differentiation(shape):
     n, big_n, nl, nk = shape
     q = with_route(inputs(n, big_n, seed=n, sensing_zones=nl, comm_zones=nk), seed=n)
-    structure = replace(structure_of(q), route=True, standoff=0.2)
+    structure = q.structure()
+    assert structure.route and structure.standoff == 0.2
     nlp = LeagueNLP(structure)
     reference = automatic_derivatives(nlp)
     pv = LeagueProblem(structure).pack_params(q)
+    assert len(pv) == nlp.n_params
     rng = np.random.default_rng(2)
     for _ in range(3):
         xv = rng.uniform(-1, 1, structure.n_vars)
@@ -136,8 +73,8 @@ def test_route_program_derivatives_equal_automatic_differentiation(shape):
 
 
 def test_route_rows_pull_a_far_robot_along_its_route():
-    """Far from every target, the one-step program barely moves; the route program heads for
-    the waypoint at about the speed its weight is set for."""
+    """Far from a well-tracked target, the one-step program barely moves; the route program
+    heads for the waypoint at about the speed its weight is set for."""
     q = inputs(1, 1, seed=0, sensing_zones=0, comm_zones=0)
     # a well-tracked target (5 cm), 8 m away: one more measurement is worth little
     q = replace(
@@ -148,10 +85,9 @@ def test_route_rows_pull_a_far_robot_along_its_route():
     )
     speed = 0.8
     weight = 2 * q.weights[1] * speed / q.dt
-    routed = replace(q, route=np.array([[0.0, 3.0, 5.0, weight]]))
-    plain = LeagueProblem(structure_of(q)).solve(q, method="ipopt")[0]["x"][:2]
-    structure = replace(structure_of(q), route=True, standoff=0.2)
-    pulled = LeagueProblem(structure).solve(routed, method="ipopt")[0]["x"][:2]
+    routed = replace(q, route=np.array([[0.0, 3.0, 5.0, weight]]), standoff=0.2)
+    plain = LeagueProblem(q.structure()).solve(q, method="ipopt")[0]["x"][:2]
+    pulled = LeagueProblem(routed.structure()).solve(routed, method="ipopt")[0]["x"][:2]
     assert np.linalg.norm(plain) < 0.2
     heading = np.array([4.0, 3.0]) / 5.0
     assert np.dot(pulled, heading) == pytest.approx(speed, abs=0.1)

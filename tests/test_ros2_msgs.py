@@ -10,7 +10,7 @@ import pytest
 from cyclonedds.idl import IdlStruct
 from rosbags.typesys.store import Nodetype
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.observation import Attack, TeamObservation
 from resilient_tracking.ros2 import msgs
 from resilient_tracking.ros2.bag import typestore

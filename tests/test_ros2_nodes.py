@@ -23,7 +23,7 @@ import pandas as pd
 import pytest
 from rosbags.rosbag2 import Reader
 
-from conftest import SCENARIOS, shipped
+from helpers import SCENARIOS, shipped
 from resilient_tracking import cli
 from resilient_tracking.ros2 import msgs
 from resilient_tracking.ros2.bag import typestore

@@ -132,3 +132,45 @@ def test_sample_is_reproducible_and_independent_per_channel() -> None:
     res[:, 1] = wrap_angle(res[:, 1])
     corr = np.corrcoef(res[:, 0], res[:, 1])[0, 1]
     assert abs(corr) < 4 / np.sqrt(len(res))
+
+
+def test_information_numpy_and_casadi_forms_agree_with_their_derivatives():
+    """The measurement model's information ``Hᵀ R⁻¹ H`` in NumPy, in CasADi, and the
+    hand-derived derivatives the league NLP uses, against CasADi's differentiation."""
+    import casadi as ca
+
+    sensor = RangeBearingSensor(range_peak=12.0, range_shape=0.3, bearing_peak=9.0)
+    rng = np.random.default_rng(5)
+    robots, targets = rng.normal(size=(6, 2)) * 2, rng.normal(size=(6, 2)) * 2
+    targets[0] = robots[0]  # on the target: the regularised model stays finite
+    numeric = sensor.information(robots, targets)
+    x, p, params = ca.SX.sym("x", 2), ca.SX.sym("p", 2), ca.SX.sym("s", sensor.N_PARAMETERS)
+    m = ca.vertcat(*RangeBearingSensor.information_casadi(x, p, params))
+    m_hand, jac_hand, hess_hand = RangeBearingSensor.information_derivatives_casadi(x, p, params)
+    hessians = [ca.hessian(m[r], x)[0] for r in range(3)]
+    reference = ca.Function(
+        "ref",
+        [x, p, params],
+        [m, ca.jacobian(m, x), *[ca.vertcat(h[0, 0], h[0, 1], h[1, 1]) for h in hessians]],
+    )
+    hand = ca.Function("hand", [x, p, params], [m_hand, jac_hand, hess_hand])
+    for k in range(len(robots)):
+        m_ref, jac_ref, *hess_ref = (
+            v.full() for v in reference(robots[k], targets[k], sensor.parameters)
+        )
+        m_h, jac_h, hess_h = (v.full() for v in hand(robots[k], targets[k], sensor.parameters))
+        np.testing.assert_allclose(numeric[k], m_ref.ravel(), rtol=1e-12)
+        np.testing.assert_allclose(m_h, m_ref, rtol=1e-12)
+        np.testing.assert_allclose(jac_h, jac_ref, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(hess_h, np.hstack(hess_ref).T, rtol=1e-8, atol=1e-8)
+
+
+def test_information_is_jacobian_weighted_by_inverse_noise_away_from_the_target():
+    """Far from the regularisation, ``Hᵀ R⁻¹ H`` is the filter's Jacobian and noise model."""
+    sensor = RangeBearingSensor(max_range=None)
+    robot, target = np.array([0.3, -1.0]), np.array([4.0, 2.5])
+    h = sensor.jacobian(robot, target)
+    rinv = 1.0 / sensor.noise_variance(np.linalg.norm(target - robot))
+    info = h.T @ np.diag(rinv) @ h
+    expected = np.array([info[0, 0], info[0, 1], info[1, 1]])
+    np.testing.assert_allclose(sensor.information(robot, target), expected, rtol=1e-3)

@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.sim.soak import soak
 
 STEPS = int(os.environ.get("RTRACK_SOAK_STEPS", "24"))

@@ -14,13 +14,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector, InjectedSolverFault
-from resilient_tracking.planning.league_problem import (
-    COMM_COLUMNS,
-    SENSING_COLUMNS,
-    ProblemInputs,
-)
+from resilient_tracking.planning.layout import ProblemInputs, comm_table, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.planning.safe_action import constraint_margins, safe_action
 from resilient_tracking.sim.episode import run_episode
@@ -93,8 +89,8 @@ def inputs(positions, sensing_zones=(), comm_zones=(), u_max=1.0, lower=None, up
         dt=0.1,
         u_lower=np.full((n, 2), -u_max) if lower is None else np.asarray(lower, dtype=float),
         u_upper=np.full((n, 2), u_max) if upper is None else np.asarray(upper, dtype=float),
-        sensing_zones=np.asarray(sensing_zones, dtype=float).reshape(-1, SENSING_COLUMNS),
-        comm_zones=np.asarray(comm_zones, dtype=float).reshape(-1, COMM_COLUMNS),
+        sensing_zones=sensing_table(sensing_zones),
+        comm_zones=comm_table(comm_zones),
     )
 
 

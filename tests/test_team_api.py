@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import shipped
+from helpers import shipped
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
 from resilient_tracking.team import Team
 

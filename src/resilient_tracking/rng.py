@@ -11,15 +11,8 @@ import zlib
 
 import numpy as np
 
-STREAMS = ("zone_centers", "attacks", "measurements", "target_motion", "estimator_init")
-
 
 def stream(seed: int, name: str) -> np.random.Generator:
     """The generator for stream ``name`` of episode ``seed``."""
     key = zlib.crc32(name.encode("utf-8"))
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence([int(seed), key])))
-
-
-def streams(seed: int) -> dict[str, np.random.Generator]:
-    """All named streams of an episode."""
-    return {name: stream(seed, name) for name in STREAMS}

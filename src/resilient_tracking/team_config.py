@@ -26,11 +26,6 @@ class TeamConfig:
     def n_robots(self) -> int:
         return len(self.u_max)
 
-    @property
-    def sensor_params(self) -> np.ndarray:
-        s = self.sensor
-        return np.array([s.range_peak, s.range_shape, s.bearing_peak, s.bearing_shape])
-
     def velocity_bounds(
         self, robots: list[int], positions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,8 @@ stacked and linearised at the *predicted* target position, giving
     P⁻¹_{t+1|t+1} = P⁻¹_{t+1|t} + Σ_k H_kᵀ R_k⁻¹ H_k,
     ŷ_{t+1|t+1}   = ŷ_{t+1|t} + K z̃,   K z̃ = P_{t+1|t+1} Σ_k H_kᵀ R_k⁻¹ z̃_k,
 
-with ``H_k`` the 2×4 Jacobian (position columns from the sensor, zero velocity columns),
+with ``H_k`` the 2×4 Jacobian (position columns from the sensor model's ``jacobian``, zero
+velocity columns),
 ``R_k = diag(R(d̂_k))`` from the *predicted* distance (the filter never sees the true one) and the
 bearing innovation wrapped to [−π, π). The information sum is evaluated in the equivalent
 gain form (``P`` is never inverted) and the covariance in Joseph form, so it stays
@@ -25,7 +26,7 @@ from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import MIN_RANGE, RangeBearingSensor, wrap_angle
+from resilient_tracking.models.sensor import MeasurementModel, wrap_angle
 
 FloatArray = NDArray[np.float64]
 
@@ -46,25 +47,11 @@ class EkfUpdate:
     dof: NDArray[np.int64]
 
 
-def measurement_jacobians(robots: FloatArray, positions: FloatArray) -> FloatArray:
-    """Batched range-bearing Jacobians wrt target position, ``(K, N, 2, 2)``.
-
-    Same formula (and the same ``MIN_RANGE`` clamp) as ``RangeBearingSensor.jacobian``.
-    """
-    pos = np.asarray(positions, dtype=float)
-    delta = pos[None, :, :] - np.asarray(robots, dtype=float)[:, None, :]
-    dx, dy = delta[..., 0], delta[..., 1]
-    d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
-    d = np.sqrt(d2)
-    row_range = np.stack([dx / d, dy / d], axis=-1)
-    row_bearing = np.stack([-dy / d2, dx / d2], axis=-1)
-    return np.stack([row_range, row_bearing], axis=-2)
-
-
 class ExtendedKalmanFilter:
-    """EKF for ``N`` independent NCV targets observed by ``K`` range-bearing robots."""
+    """EKF for ``N`` independent NCV targets observed by ``K`` robots through ``sensor``
+    (its measurement, Jacobian and noise; the paper's is range-bearing)."""
 
-    def __init__(self, model: NearlyConstantVelocity, sensor: RangeBearingSensor) -> None:
+    def __init__(self, model: NearlyConstantVelocity, sensor: MeasurementModel) -> None:
         self.model = model
         self.sensor = sensor
         self._a = model.transition
@@ -118,7 +105,7 @@ class ExtendedKalmanFilter:
         mean, cov = est.mean, est.cov
         pos = mean[:, :2]
         h = self.sensor.predict(robots[:, None, :], pos[None, :, :])  # (K, N, 2)
-        hjac = measurement_jacobians(robots, pos)  # (K, N, 2, 2)
+        hjac = self.sensor.jacobian(robots[:, None, :], pos[None, :, :])  # (K, N, 2, 2)
         var = self.sensor.noise_variance(h[..., 0])  # R(d̂) at the predicted distance
 
         valid = np.all(np.isfinite(z), axis=-1)  # (K, N)

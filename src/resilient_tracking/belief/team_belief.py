@@ -164,9 +164,6 @@ class TeamBelief:
 
     # ------------------------------------------------------------------ queries
 
-    def league_estimate(self, robot: int) -> TargetEstimate:
-        return self.estimates[int(self.league_of[robot])]
-
     def league_knowledge(self, league: list[int]) -> KnowledgeBase:
         """Knowledge shared within a league (identical for its members after a tick)."""
         return self.knowledge[league[0]]

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.viz.io import RunData, attack_table, load_run
+from resilient_tracking.viz.io import RunData, attack_table
 
 
 def survival_steps(team: pd.DataFrame, n_robots: int) -> int:
@@ -92,10 +91,3 @@ def summarise_run(run: RunData) -> dict[str, Any]:
         else 0,
         "solver_fallbacks": int(np.sum(fallbacks)),
     }
-
-
-def summarise_runs(run_dirs: list[Path]) -> pd.DataFrame:
-    """The summary table of many run folders (sorted for stable reports)."""
-    rows = [summarise_run(load_run(d)) for d in run_dirs]
-    df = pd.DataFrame(rows)
-    return df.sort_values(["experiment", "variant", "seed"]).reset_index(drop=True) if rows else df

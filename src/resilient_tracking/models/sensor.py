@@ -1,13 +1,22 @@
-"""Range-bearing sensor with distance-dependent noise (docs/model.md §1, paper eq. 2).
+"""Measurement models: what a robot's sensor measures of a target, and how much it tells.
 
-Each sensor has inverse variance ``R⁻¹(d) = peak · exp(−shape · d)``, so the noise variance is
-``R(d) = exp(shape · d) / peak``; noise is drawn with that variance.
+:class:`MeasurementModel` is the interface every consumer goes through — the EKF (measurement,
+Jacobian, noise), the league NLP and the SOG program (the information ``Hᵀ R⁻¹ H`` a sensor
+would contribute from a planned position, in CasADi form). A new sensor type is one new
+subclass (plus its scenario schema).
+
+:class:`RangeBearingSensor` is the paper's sensor (docs/model.md §1, paper eq. 2): range and
+bearing with inverse variance ``R⁻¹(d) = peak · exp(−shape · d)`` per channel, so the noise
+variance is ``R(d) = exp(shape · d) / peak``; noise is drawn with that variance.
 """
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
+import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
@@ -17,6 +26,8 @@ FloatArray = NDArray[np.float64]
 MIN_RANGE = 1e-3
 #: Cap on ``shape · d`` in the noise model: ``exp(600)`` keeps variances finite, far from overflow.
 MAX_EXPONENT = 600.0
+#: Distance regularisation (m) of the planners' information model: ``d² → d² + PLAN_EPS²``.
+PLAN_EPS = 0.05
 
 
 def wrap_angle(a: FloatArray | float) -> FloatArray | float:
@@ -24,8 +35,70 @@ def wrap_angle(a: FloatArray | float) -> FloatArray | float:
     return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
+class MeasurementModel(ABC):
+    """A sensor's measurement of a point target, in NumPy (filtering) and CasADi (planning).
+
+    The planners see a model only through :attr:`parameters`, a numeric vector of
+    :attr:`N_PARAMETERS` entries that is a parameter of their programs (so one compiled problem
+    serves every sensor of the type), and the class-level CasADi forms that take it.
+    """
+
+    #: length of :attr:`parameters`
+    N_PARAMETERS: ClassVar[int]
+
+    @property
+    @abstractmethod
+    def parameters(self) -> FloatArray:
+        """The model's numbers as the planners' programs take them."""
+
+    @abstractmethod
+    def predict(self, robot: FloatArray, target: FloatArray) -> FloatArray:
+        """Noise-free measurement; arrays broadcast over leading axes."""
+
+    @abstractmethod
+    def noise_variance(self, distance: FloatArray | float) -> FloatArray:
+        """Per-channel noise variance at this distance."""
+
+    @abstractmethod
+    def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
+        """Jacobian of the measurement w.r.t. the target position; broadcasts, ``(..., 2, 2)``."""
+
+    @abstractmethod
+    def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
+        """Whether a target at this distance is measured at all."""
+
+    @abstractmethod
+    def sample(self, robot: FloatArray, target: FloatArray, rng: np.random.Generator) -> FloatArray:
+        """A noisy measurement."""
+
+    @abstractmethod
+    def information(
+        self, robot: FloatArray, target: FloatArray, eps: float = PLAN_EPS
+    ) -> FloatArray:
+        """Entries ``(xx, xy, yy)`` (last axis) of the planners' ``Hᵀ R⁻¹ H`` of a sensor at
+        ``robot`` seeing ``target``, distances regularised by ``eps``; broadcasts. The NumPy
+        twin of :meth:`information_casadi`."""
+
+    @staticmethod
+    @abstractmethod
+    def information_casadi(
+        x: Any, p: Any, params: Any, eps: float = PLAN_EPS
+    ) -> tuple[Any, Any, Any]:
+        """Entries ``(xx, xy, yy)`` of ``Hᵀ R⁻¹ H`` of a sensor at ``x`` seeing ``p``, with
+        the model's numbers ``params`` (CasADi SX, MX or DM), distances regularised by
+        ``eps``."""
+
+    @staticmethod
+    @abstractmethod
+    def information_derivatives_casadi(
+        x: Any, p: Any, params: Any, eps: float = PLAN_EPS
+    ) -> tuple[Any, Any, Any]:
+        """``m = (xx, xy, yy)`` of :meth:`information_casadi`, its Jacobian ``∂m/∂x`` (3×2)
+        and its Hessians (3×3: row ``r`` holds ``∂²m_r/∂x²`` as ``[xx, xy, yy]``)."""
+
+
 @dataclass(frozen=True)
-class RangeBearingSensor:
+class RangeBearingSensor(MeasurementModel):
     """Range and bearing to a point target; parameters per sensor channel."""
 
     range_peak: float = 15.0
@@ -33,6 +106,13 @@ class RangeBearingSensor:
     bearing_peak: float = 15.0
     bearing_shape: float = 0.2
     max_range: float | None = None
+
+    #: range peak, range shape, bearing peak, bearing shape
+    N_PARAMETERS: ClassVar[int] = 4
+
+    @property
+    def parameters(self) -> FloatArray:
+        return np.array([self.range_peak, self.range_shape, self.bearing_peak, self.bearing_shape])
 
     def predict(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Noise-free measurement ``[‖p − x‖, atan2(Δy, Δx)]``; arrays broadcast over rows."""
@@ -54,14 +134,17 @@ class RangeBearingSensor:
         )
 
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
-        """Jacobian of the measurement with respect to the target position (2×2)."""
-        dx, dy = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
-        d2 = max(dx * dx + dy * dy, MIN_RANGE**2)
+        """Jacobian of the measurement w.r.t. the target position: rows ``δᵀ/d`` (range) and
+        ``[−δy, δx]/d²`` (bearing), ``d`` clamped at ``MIN_RANGE``; broadcasts, ``(..., 2, 2)``."""
+        delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        dx, dy = delta[..., 0], delta[..., 1]
+        d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
         d = np.sqrt(d2)
-        return np.array([[dx / d, dy / d], [-dy / d2, dx / d2]])
+        row_range = np.stack([dx / d, dy / d], axis=-1)
+        row_bearing = np.stack([-dy / d2, dx / d2], axis=-1)
+        return np.stack([row_range, row_bearing], axis=-2)
 
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
-        """Whether a target at this distance is measured at all."""
         d = np.asarray(distance, dtype=float)
         if self.max_range is None:
             return np.ones_like(d, dtype=bool)
@@ -74,3 +157,82 @@ class RangeBearingSensor:
         z = clean + std * rng.standard_normal(clean.shape)
         z[..., 1] = wrap_angle(z[..., 1])
         return z
+
+    def information(
+        self, robot: FloatArray, target: FloatArray, eps: float = PLAN_EPS
+    ) -> FloatArray:
+        delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        dx, dy = delta[..., 0], delta[..., 1]
+        d2 = dx * dx + dy * dy + eps**2
+        d = np.sqrt(d2)
+        info_r = self.range_peak * np.exp(-self.range_shape * d) / d2
+        info_b = self.bearing_peak * np.exp(-self.bearing_shape * d) / (d2 * d2)
+        return np.stack(
+            [
+                info_r * dx * dx + info_b * dy * dy,
+                (info_r - info_b) * dx * dy,
+                info_r * dy * dy + info_b * dx * dx,
+            ],
+            axis=-1,
+        )
+
+    @staticmethod
+    def information_casadi(
+        x: Any, p: Any, params: Any, eps: float = PLAN_EPS
+    ) -> tuple[Any, Any, Any]:
+        """``Hᵀ R⁻¹ H`` with ``d² = ‖p − x‖² + eps²``: the range row is ``δᵀ/d``, the
+        bearing row ``[−δy, δx]/d²`` (paper eq. 2)."""
+        delta = p - x
+        d2 = ca.sumsqr(delta) + eps**2
+        d = ca.sqrt(d2)
+        info_r = params[0] * ca.exp(-params[1] * d) / d2  # range row is δᵀ/d
+        info_b = params[2] * ca.exp(-params[3] * d) / (d2 * d2)  # bearing row is [−δy, δx]/d²
+        dx, dy = delta[0], delta[1]
+        return (
+            info_r * dx * dx + info_b * dy * dy,
+            (info_r - info_b) * dx * dy,
+            info_r * dy * dy + info_b * dx * dx,
+        )
+
+    @staticmethod
+    def information_derivatives_casadi(
+        x: Any, p: Any, params: Any, eps: float = PLAN_EPS
+    ) -> tuple[Any, Any, Any]:
+        """:meth:`information_casadi` with its first and second derivatives, by hand.
+
+        ``m = φ_r(ρ) v_r(δ) + φ_b(ρ) v_b(δ)`` with ``δ = p − x``, ``ρ = ‖δ‖² + ε²``,
+        ``φ(ρ) = peak e^{−shape √ρ} ρ^{−k}`` (``k = 1`` range, ``2`` bearing),
+        ``v_r = (δx², δxδy, δy²)`` and ``v_b = (δy², −δxδy, δx²)``.
+        """
+        dx, dy = p[0] - x[0], p[1] - x[1]
+        rho = dx * dx + dy * dy + eps**2
+        root = ca.sqrt(rho)
+        v = {"r": (dx * dx, dx * dy, dy * dy), "b": (dy * dy, -dx * dy, dx * dx)}
+        # ∂v/∂δx, ∂v/∂δy and the constant second derivatives (xx, xy, yy)
+        dv = {"r": ((2 * dx, dy, 0), (0, dx, 2 * dy)), "b": ((0, -dy, 2 * dx), (2 * dy, -dx, 0))}
+        ddv = {"r": ((2, 0, 0), (0, 1, 0), (0, 0, 2)), "b": ((0, 0, 2), (0, -1, 0), (2, 0, 0))}
+        m = [0, 0, 0]
+        jac = [[0, 0], [0, 0], [0, 0]]  # w.r.t. δ
+        hess = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]  # w.r.t. δ: xx, xy, yy
+        d = (dx, dy)
+        channels = (("r", params[0], params[1], 1), ("b", params[2], params[3], 2))
+        for channel, peak, shape, k in channels:
+            phi = peak * ca.exp(-shape * root) / (rho if k == 1 else rho * rho)
+            l1 = -shape / (2 * root) - k / rho
+            phi1 = phi * l1
+            phi2 = phi * (l1 * l1 + shape / (4 * rho * root) + k / (rho * rho))
+            for r in range(3):
+                vr = v[channel][r]
+                m[r] = m[r] + phi * vr
+                for a in range(2):
+                    jac[r][a] = jac[r][a] + 2 * phi1 * d[a] * vr + phi * dv[channel][a][r]
+                for e, (a, b) in enumerate(((0, 0), (0, 1), (1, 1))):
+                    term = 4 * phi2 * d[a] * d[b] * vr + phi * ddv[channel][e][r]
+                    term = term + 2 * phi1 * (
+                        (vr if a == b else 0) + d[a] * dv[channel][b][r] + d[b] * dv[channel][a][r]
+                    )
+                    hess[r][e] = hess[r][e] + term
+        # x = p − δ: the Jacobian flips sign, the Hessian does not
+        jac_x = ca.vertcat(*[ca.horzcat(-jac[r][0], -jac[r][1]) for r in range(3)])
+        hess_x = ca.vertcat(*[ca.horzcat(*hess[r]) for r in range(3)])
+        return ca.vertcat(*m), jac_x, hess_x

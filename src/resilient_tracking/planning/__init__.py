@@ -1,1 +1,21 @@
-"""Planning: the league NLP built once per structure, and the solver that runs it safely."""
+"""Planning: the league NLP built once per structure, and the solver that runs it safely.
+
+A map, in reading order:
+
+* ``layout`` — a league problem's sizes (``Structure``), its per-step inputs by name
+  (``ProblemInputs``; zone rows and weights with named columns) and where each sits in the
+  solver's flat parameter and decision vectors;
+* ``margins`` — the keep-out margin of the chance constraints (eqs. 7c/7d), symbolic and numeric;
+* ``pieces`` — the NLP's small pieces (sensor information, trace, margin, distance) with their
+  derivatives; the sensor's own model is in ``models.sensor``;
+* ``nlp`` — ``LeagueNLP``: objective terms and constraint rows assembled step by step;
+  ``hessian`` — assembling and convexifying its Hessian;
+* ``reduction`` — the SQP's smaller problem with the same solutions for large leagues;
+* ``solver_options`` — solver settings and ``ProblemOptions``;
+* ``league_problem`` — ``LeagueProblem``: solvers for one structure and one solve;
+  ``compiled_call`` — the flat-buffer call of a solver; ``nlp_cache`` — problems shared
+  process-wide; ``codegen`` and ``cache`` — compiled code and the LRU cache;
+* ``planner`` — the never-crashing solver ladder; ``safe_action`` — its last rung;
+* ``adaptation``, ``evasion`` — the failure-aware policy's weights and circling;
+* ``sog_problem`` — the SOG baseline's program; ``faults`` — solver-fault injection for tests.
+"""

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from resilient_tracking.planning.league_problem import ROUTE_COLUMNS
+from resilient_tracking.planning.layout import CommRow, RouteRow, SensingRow
 from resilient_tracking.planning.route import RouteMap
 from resilient_tracking.scenario import RouteSpec
 
@@ -40,11 +40,13 @@ def keep_out_discs(sensing_rows: np.ndarray, comm_rows: np.ndarray, pair: float)
     """
     pair = PAIR_STEP * math.ceil(pair / PAIR_STEP)
     discs = []
-    for row in np.asarray(sensing_rows).reshape(-1, 7):
-        discs.append([row[0], row[1], row[5] + row[6] * _spread(row[2:5])])
-    for row in np.asarray(comm_rows).reshape(-1, 8):
-        radius = row[7] + row[6] * _spread(row[2:5]) + row[5] * pair
-        discs.append([row[0], row[1], radius])
+    for row in np.asarray(sensing_rows).reshape(-1, SensingRow.WIDTH):
+        radius = row[SensingRow.R_SAFE] + row[SensingRow.BETA] * _spread(row[SensingRow.COVARIANCE])
+        discs.append([*row[SensingRow.MEAN], radius])
+    for row in np.asarray(comm_rows).reshape(-1, CommRow.WIDTH):
+        spread = _spread(row[CommRow.COVARIANCE])
+        radius = row[CommRow.CLEARANCE] + row[CommRow.BETA] * spread + row[CommRow.DELTA2] * pair
+        discs.append([*row[CommRow.MEAN], radius])
     return np.array(discs, dtype=float).reshape(-1, 3)
 
 
@@ -79,8 +81,8 @@ def route_rows(
     """Route rows ``(waypoint x, y, offset, weight)`` per robot; robots that cannot sense get
     weight 0 (no tracking to go to)."""
     n = len(positions)
-    rows = np.zeros((n, ROUTE_COLUMNS))
-    rows[:, :2] = positions
+    rows = np.zeros((n, RouteRow.WIDTH))
+    rows[:, RouteRow.WAYPOINT] = positions
     sensing = np.flatnonzero(np.asarray(can_sense) > 0)
     if not len(sensing) or not len(targets):
         return rows
@@ -93,7 +95,7 @@ def route_rows(
     )
     goals = routes.outside(targets[chosen] + velocities[chosen] * ahead[:, None])
     waypoints, remaining = routes.routes(starts, goals)
-    rows[sensing, :2] = waypoints
-    rows[sensing, 2] = remaining - params.reach
-    rows[sensing, 3] = 2 * w_effort * speed / dt
+    rows[sensing, RouteRow.WAYPOINT] = waypoints
+    rows[sensing, RouteRow.OFFSET] = remaining - params.reach
+    rows[sensing, RouteRow.WEIGHT] = 2 * w_effort * speed / dt
     return rows

@@ -25,12 +25,10 @@ from typing import Any
 import numpy as np
 
 from resilient_tracking.planning.cache import LruCache
-from resilient_tracking.planning.league_problem import (
-    NLP_BUDGET,
-    LeagueProblem,
-    ProblemInputs,
-    Structure,
-)
+from resilient_tracking.planning.layout import ProblemInputs, Structure
+from resilient_tracking.planning.league_problem import LeagueProblem
+from resilient_tracking.planning.nlp_cache import NLP_BUDGET
+from resilient_tracking.planning.solver_options import ProblemOptions
 from resilient_tracking.scenario import PlannerSpec, RouteSpec
 
 log = logging.getLogger(__name__)
@@ -195,11 +193,12 @@ class LeaguePlanner(SolverLadder):
         self,
         solver: str = "ladder",
         fault_hook: FaultHook | None = None,
-        options: dict[str, Any] | None = None,
+        options: ProblemOptions | dict[str, Any] | None = None,
         route: RouteSpec | None = None,
     ):
         super().__init__(solver, fault_hook)
-        self.options = options
+        #: checked here, before any episode runs: an unknown key is an error naming it
+        self.options = ProblemOptions.of(options)
         self.route = route
 
     @classmethod

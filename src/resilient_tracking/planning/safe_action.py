@@ -12,39 +12,31 @@ from __future__ import annotations
 
 import numpy as np
 
-from resilient_tracking.planning.league_problem import ProblemInputs
+from resilient_tracking.planning.layout import CommRow, ProblemInputs, SensingRow
+from resilient_tracking.planning.margins import keep_out_values, pair_distances
 
 #: Below this distance (m) to a zone mean the way out is undefined: hold.
 MIN_ESCAPE_DISTANCE = 1e-9
 
 
-def _spread(offset: np.ndarray, sxx: float, sxy: float, syy: float, dist: float) -> float:
-    """``√(2 âᵀ Σ â)`` with ``â`` the unit vector from the robot to the zone mean."""
-    a = -offset / dist
-    quad = a[0] * a[0] * sxx + 2 * a[0] * a[1] * sxy + a[1] * a[1] * syy
-    return float(np.sqrt(max(2.0 * quad, 0.0)))
-
-
 def constraint_margins(q: ProblemInputs, robot: int) -> np.ndarray:
-    """Left minus right side of the robot's zone constraints at its current position (no slack).
+    """The keep-out margins of the robot's zone constraints at its current position (no
+    slack; comm rows with its farthest teammate, the row that binds first).
 
     One value per known zone, sensing rows first, then comm rows; negative means violated.
     """
     x = q.positions[robot]
-    out = []
-    for mx, my, sxx, sxy, syy, r_safe, beta in q.sensing_zones:
-        offset = x - np.array([mx, my])
-        dist = float(np.linalg.norm(offset))
-        spread = _spread(offset, sxx, sxy, syy, dist) if dist > 0 else 0.0
-        out.append(dist - r_safe - beta * spread)
+    zs, zc = q.sensing_zones, q.comm_zones
+    sensing = keep_out_values(
+        x, zs[:, SensingRow.GAUSSIAN], zs[:, SensingRow.R_SAFE], zs[:, SensingRow.BETA]
+    )
     others = np.delete(q.positions, robot, axis=0)
-    farthest = float(np.linalg.norm(others - x, axis=1).max()) if len(others) else 0.0
-    for mx, my, sxx, sxy, syy, delta2, beta, clearance in q.comm_zones:
-        offset = x - np.array([mx, my])
-        dist = float(np.linalg.norm(offset))
-        spread = _spread(offset, sxx, sxy, syy, dist) if dist > 0 else 0.0
-        out.append(dist - delta2 * farthest - clearance - beta * spread)
-    return np.array(out, dtype=float)
+    farthest = float(pair_distances(x, others).max()) if len(others) else 0.0
+    comm = keep_out_values(
+        x, zc[:, CommRow.GAUSSIAN], zc[:, CommRow.CLEARANCE], zc[:, CommRow.BETA]
+    )
+    comm = comm - zc[:, CommRow.DELTA2] * farthest
+    return np.concatenate([sensing, comm]).astype(float)
 
 
 def _scale_into(direction: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -63,7 +55,9 @@ def safe_action(q: ProblemInputs) -> tuple[np.ndarray, list[str]]:
     n = len(q.positions)
     controls = np.zeros((n, 2))
     actions = ["hold"] * n
-    means = np.concatenate([q.sensing_zones[:, :2], q.comm_zones[:, :2]], axis=0)
+    means = np.concatenate(
+        [q.sensing_zones[:, SensingRow.MEAN], q.comm_zones[:, CommRow.MEAN]], axis=0
+    )
     if len(means) == 0:
         return controls, actions
     for i in range(n):

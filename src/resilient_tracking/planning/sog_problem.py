@@ -32,8 +32,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.planning.league_problem import IPOPT_OPTIONS, measurement_information
+from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.planning.pieces import trace_of_inverse
 from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
+from resilient_tracking.planning.solver_options import IPOPT_OPTIONS
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +88,7 @@ def _sog_entries(xp: Any, weight: Any, target: Any, prior: Any, sensor: Any) -> 
     """Entries (xx, xy, yy) of ``P⁻⁻¹ + Σ_i weight_i Hᵀ R⁻¹ H`` for one target."""
     a, b, c = prior[0], prior[1], prior[2]
     for i in range(xp.shape[1]):
-        ixx, ixy, iyy = measurement_information(xp[:, i], target, sensor)
+        ixx, ixy, iyy = RangeBearingSensor.information_casadi(xp[:, i], target, sensor)
         a = a + weight[i] * ixx
         b = b + weight[i] * ixy
         c = c + weight[i] * iyy
@@ -99,7 +101,7 @@ def information_function(n_robots: int, n_targets: int) -> ca.Function:
     xp = ca.MX.sym("x", 2, n_robots)
     weight = ca.MX.sym("w", n_robots)
     targets = ca.MX.sym("targets", 2, n_targets)
-    sensor = ca.MX.sym("sensor", 4)
+    sensor = ca.MX.sym("sensor", RangeBearingSensor.N_PARAMETERS)
     cols = [
         ca.vertcat(*_sog_entries(xp, weight, targets[:, j], ca.DM.zeros(3), sensor))
         for j in range(n_targets)
@@ -132,7 +134,7 @@ class SogInputs:
     sensing: np.ndarray  # (n,) 1.0 if the robot's sensor works
     targets: np.ndarray  # (N, 2) predicted target positions at t+1
     prior_info: np.ndarray  # (N, 2, 2) predicted position-block information P⁻⁻¹
-    sensor: np.ndarray  # (4,) range peak, range shape, bearing peak, bearing shape
+    sensor: np.ndarray  # the sensor model's parameters (RangeBearingSensor.parameters)
     dt: float
     u_lower: np.ndarray  # (n, 2)
     u_upper: np.ndarray  # (n, 2)
@@ -159,7 +161,7 @@ class SogProblem:
         sense = ca.MX.sym("s", n)
         targets = ca.MX.sym("targets", 2, big_n)
         prior = ca.MX.sym("prior", 3, big_n)
-        sensor = ca.MX.sym("sensor", 4)
+        sensor = ca.MX.sym("sensor", RangeBearingSensor.N_PARAMETERS)
         dt = ca.MX.sym("dt")
         zones = ca.MX.sym("zones", ZONE_COLUMNS, nz)
         k = ca.MX.sym("scalars", SCALARS)
@@ -174,7 +176,7 @@ class SogProblem:
         g = []
         for j in range(big_n):
             a, b, c = _sog_entries(xp, survive, targets[:, j], prior[:, j], sensor)
-            trace = (a + c) / (a * c - b * b)  # tr of the 2×2 inverse
+            trace = trace_of_inverse(a, b, c)
             g.append(rho1 + d1[j] - trace)
         if nz:
             g += [rho2 + d2[i] - phi[i] for i in range(n)]

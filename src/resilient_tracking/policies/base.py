@@ -12,13 +12,7 @@ from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.goals import keep_out_discs, route_rows
-from resilient_tracking.planning.league_problem import (
-    COMM_COLUMNS,
-    PLAN_EPS,
-    SENSING_COLUMNS,
-    ProblemInputs,
-    Structure,
-)
+from resilient_tracking.planning.layout import ProblemInputs, Weight, comm_table, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 from resilient_tracking.planning.route import RouteMaps
 from resilient_tracking.planning.safe_action import safe_action
@@ -72,39 +66,41 @@ class Policy(ABC):
     ) -> ProblemInputs:
         """Numeric inputs of a league problem: predicted targets, bounds, zones, and with the
         route program each robot's route row."""
-        sensing_zones = np.zeros((0, SENSING_COLUMNS)) if sensing_zones is None else sensing_zones
-        comm_zones = np.zeros((0, COMM_COLUMNS)) if comm_zones is None else comm_zones
+        sensing_zones = sensing_table() if sensing_zones is None else sensing_zones
+        comm_zones = comm_table() if comm_zones is None else comm_zones
         predicted = belief.ekf.predict(belief.estimates[league])
         lower, upper = self.config.velocity_bounds(robots, obs.positions)
-        route = None
-        if self.planner.route is not None:
-            positions = obs.positions[robots]
-            discs = keep_out_discs(sensing_zones, comm_zones, _mean_spacing(positions))
-            route = route_rows(
-                positions,
-                sensing,
-                predicted.mean[:, :2],
-                predicted.mean[:, 2:4],
-                self.route_maps.get(discs),
-                self.config.u_max[robots],
-                float(weights[1]),
-                self.config.dt,
-                self.planner.route,
-            )
-        return ProblemInputs(
+        q = ProblemInputs(
             positions=obs.positions[robots],
             sensing=sensing.astype(float),
             targets=predicted.mean[:, :2],
             prior_info=np.linalg.inv(predicted.cov[:, :2, :2]),
             weights=weights,
-            sensor=self.config.sensor_params,
+            sensor=self.config.sensor.parameters,
             dt=self.config.dt,
             u_lower=lower,
             u_upper=upper,
             sensing_zones=sensing_zones,
             comm_zones=comm_zones,
-            route=route,
         )
+        route = self.planner.route
+        if route is None:
+            return q
+        positions = obs.positions[robots]
+        discs = keep_out_discs(sensing_zones, comm_zones, _mean_spacing(positions))
+        q.route = route_rows(
+            positions,
+            sensing,
+            predicted.mean[:, :2],
+            predicted.mean[:, 2:4],
+            self.route_maps.get(discs),
+            self.config.u_max[robots],
+            float(weights[Weight.EFFORT]),
+            self.config.dt,
+            route,
+        )
+        q.standoff = route.standoff
+        return q
 
     def solve(
         self, robots: list[int], q: ProblemInputs, step: int, decision: Decision
@@ -115,16 +111,8 @@ class Policy(ABC):
         :func:`~resilient_tracking.planning.safe_action.safe_action`: escape a known zone whose
         constraint they violate, else hold. Every fallback is an event per robot.
         """
-        structure = Structure(
-            n_robots=len(robots),
-            n_targets=len(q.targets),
-            n_sensing_zones=len(q.sensing_zones),
-            n_comm_zones=len(q.comm_zones),
-            route=q.route is not None,
-            standoff=self.planner.route.standoff if self.planner.route else PLAN_EPS,
-        )
         try:
-            result = self.planner.plan(structure, tuple(robots), q)
+            result = self.planner.plan(q.structure(), tuple(robots), q)
         except Exception as err:  # the ladder must hold even if the planner breaks
             log.warning("league %s: planner raised %s: %s", robots, type(err).__name__, err)
             result = PlanResult(

@@ -27,15 +27,11 @@ from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, as_array, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
-from resilient_tracking.planning.league_problem import COMM_COLUMNS, SENSING_COLUMNS
+from resilient_tracking.planning.layout import comm_row, comm_table, sensing_row, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.scenario import FailureAwareParams
 from resilient_tracking.team_config import TeamConfig
-
-
-def _sigma_entries(cov: np.ndarray) -> list[float]:
-    return [float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1])]
 
 
 class FailureAwarePolicy(Policy):
@@ -117,20 +113,19 @@ class FailureAwarePolicy(Policy):
         of disks of radius ``comm_clearance`` (plus any observed clearance) instead.
         """
         rows_s = [
-            [*z.mean, *_sigma_entries(z.cov), z.size + w5 + z.clearance, self.beta1]
+            sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=self.beta1)
             for z in knowledge.of_kind("sensing")
         ]
         rows_c = []
         for z in knowledge.of_kind("comm"):
             if alone:
                 radius = self.params.comm_clearance + z.clearance
-                rows_s.append([*z.mean, *_sigma_entries(z.cov), radius, self.beta2])
+                rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=self.beta2))
             else:
-                rows_c.append([*z.mean, *_sigma_entries(z.cov), z.size, self.beta2, z.clearance])
-        return (
-            np.array(rows_s, dtype=float).reshape(-1, SENSING_COLUMNS),
-            np.array(rows_c, dtype=float).reshape(-1, COMM_COLUMNS),
-        )
+                rows_c.append(
+                    comm_row(z.mean, z.cov, z.size, beta=self.beta2, clearance=z.clearance)
+                )
+        return sensing_table(rows_s), comm_table(rows_c)
 
     def _circle(
         self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation, decision: Decision

@@ -28,6 +28,7 @@ from resilient_tracking.belief.knowledge import KnowledgeBase
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.layout import Weight
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.planning.sog_problem import SogInputs, SogPlanner, zone_rows
 from resilient_tracking.policies.base import Decision, Policy
@@ -81,7 +82,7 @@ class SogPolicy(Policy):
         self.last_weights = (w_track, w_risk)
         for k, robots in enumerate(belief.leagues):
             sensing = obs.sensing_ok[robots].astype(float)
-            base = self.tracking_inputs(belief, obs, robots, k, np.zeros(4), sensing)
+            base = self.tracking_inputs(belief, obs, robots, k, np.zeros(Weight.COUNT), sensing)
             q = SogInputs(
                 positions=base.positions,
                 sensing=base.sensing,

@@ -2,7 +2,7 @@
 
 :func:`soak` runs one episode and every ``sample_every`` steps reads the process's resident set
 size (``/proc/self/statm``) and peak (``getrusage``), and the process-wide cache of league
-problems (:func:`~resilient_tracking.planning.league_problem.nlp_cache`). Memory may grow in
+problems (:func:`~resilient_tracking.planning.nlp_cache.nlp_cache`). Memory may grow in
 two ways only: the recorded tables (a fixed number of bytes per step, by design), and a new
 problem or solver being built (a zone learned, a league split, a first fallback to IPOPT),
 which the cache's budget bounds. :meth:`SoakReport.leak_mb` sums whatever else the resident
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from resilient_tracking.planning.league_problem import nlp_cache, solver_builds
+from resilient_tracking.planning.nlp_cache import nlp_cache, solver_builds
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import EpisodeResult

@@ -1,0 +1,97 @@
+"""Keep-out margins of the chance constraints (paper eqs. 7c and 7d), in one place.
+
+For a robot at ``x⁺`` and a zone estimate ``N(μ, Σ)`` the margin is::
+
+    h(x⁺) = D(x⁺, μ) − offset − β √(2 âᵀ Σ â + ε_s),   D(x⁺, μ) = √(‖μ − x⁺‖² + ε²)
+
+with ``â = (μ − x⁺) / D`` and ``β = erfinv(1 − 2ε)``; ``offset`` is ``r_safe`` for a sensing
+zone (eq. 7c) and the extra clearance of a comm zone (eq. 7d), whose row also subtracts
+``δ2 ρ(x_i⁺ − x_q⁺)`` for each teammate, ``ρ(v) = √(‖v‖² + ε²)``. The regularisations ``ε``
+(``PLAN_EPS``) and ``ε_s`` (``SPREAD_EPS``) keep the margin differentiable everywhere.
+
+The same margin three ways, side by side: symbolic (:func:`keep_out`, :func:`pair_distance`)
+for the NLP, numeric (:func:`keep_out_values`, :func:`pair_distances`) for the safe action,
+and a lower bound over a disc of reachable positions (:func:`keep_out_lower_bound`) for the
+SQP's reduced problem. ``tests/test_margins.py`` checks that they agree.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from resilient_tracking.models.sensor import PLAN_EPS
+
+#: Keeps √(2 âᵀΣâ) differentiable where â vanishes (a robot exactly on a zone's mean).
+SPREAD_EPS = 1e-9
+
+
+# ---------------------------------------------------------------------------- symbolic
+
+
+def _unit_and_norm(v: Any) -> tuple[Any, Any]:
+    norm = ca.sqrt(ca.sumsqr(v) + PLAN_EPS**2)
+    return v / norm, norm
+
+
+def _quad(a: Any, sxx: Any, sxy: Any, syy: Any) -> Any:
+    return a[0] * a[0] * sxx + 2 * a[0] * a[1] * sxy + a[1] * a[1] * syy
+
+
+def keep_out(xp: Any, gaussian: Any, offset: Any, beta: Any) -> Any:
+    """``h(x⁺)`` for a zone's ``gaussian`` (mean, then covariance xx, xy, yy), symbolic."""
+    ahat, dist = _unit_and_norm(gaussian[0:2] - xp)
+    spread = ca.sqrt(2 * _quad(ahat, gaussian[2], gaussian[3], gaussian[4]) + SPREAD_EPS)
+    return dist - offset - beta * spread
+
+
+def pair_distance(xp: Any, xq: Any) -> Any:
+    """``ρ(x_p − x_q)``, the regularised distance between two robots, symbolic."""
+    return ca.sqrt(ca.sumsqr(xp - xq) + PLAN_EPS**2)
+
+
+# ---------------------------------------------------------------------------- numeric
+
+
+def keep_out_values(
+    x: np.ndarray, gaussians: np.ndarray, offset: np.ndarray, beta: np.ndarray
+) -> np.ndarray:
+    """``h(x)`` of one position ``x`` (2,) for each zone row of ``gaussians`` (L, ≥ 5)."""
+    g = np.asarray(gaussians, dtype=float)
+    v = g[:, 0:2] - np.asarray(x, dtype=float)
+    dist = np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2 + PLAN_EPS**2)
+    a = v / dist[:, None]
+    quad = (
+        a[:, 0] * a[:, 0] * g[:, 2] + 2 * a[:, 0] * a[:, 1] * g[:, 3] + a[:, 1] * a[:, 1] * g[:, 4]
+    )
+    return np.asarray(dist - offset - beta * np.sqrt(2 * quad + SPREAD_EPS))
+
+
+def pair_distances(x: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """``ρ(x − x_q)`` for each row of ``others``."""
+    v = np.asarray(others, dtype=float).reshape(-1, 2) - np.asarray(x, dtype=float)
+    return np.asarray(np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2 + PLAN_EPS**2))
+
+
+def keep_out_lower_bound(
+    x: np.ndarray, reach: np.ndarray, gaussians: np.ndarray, offset: np.ndarray, beta: np.ndarray
+) -> np.ndarray:
+    """``(robots, zones)``: a lower bound of ``h`` over the disc of radius ``reach[i]`` around
+    each robot position ``x[i]``.
+
+    ``D(x⁺, μ) ≥ √(max(‖μ − x_i‖ − r_i, 0)² + ε²)`` over the disc and, as ``‖â‖ < 1``,
+    ``0 ≤ √(2 âᵀΣâ + ε_s) ≤ √(2 max(λ_max(Σ), 0) + ε_s)``, so ``β`` times it is at most
+    ``max(β, 0) √(2 max(λ_max(Σ), 0) + ε_s)``.
+    """
+    z = gaussians
+    gap = np.hypot(z[:, 0] - x[:, :1], z[:, 1] - x[:, 1:]) - reach[:, None]
+    top = 0.5 * (z[:, 2] + z[:, 4]) + np.hypot(0.5 * (z[:, 2] - z[:, 4]), z[:, 3])
+    spread = np.sqrt(2 * np.maximum(top, 0.0) + SPREAD_EPS)
+    return np.sqrt(np.maximum(gap, 0.0) ** 2 + PLAN_EPS**2) - offset - np.maximum(beta, 0) * spread
+
+
+def pair_distance_upper_bound(distance: np.ndarray) -> np.ndarray:
+    """``ρ`` at a distance that bounds ``‖x_i⁺ − x_q⁺‖`` from above: an upper bound of ``ρ``."""
+    return np.asarray(np.sqrt(distance**2 + PLAN_EPS**2))

@@ -1,0 +1,60 @@
+"""The process-wide cache of symbolic league problems, and a count of the solvers built.
+
+Symbolic problems (with their compile jobs) are shared process-wide: building them is the
+expensive, stateless part. Solvers are not shared: qpOASES keeps state from one solve to the
+next, so a solver's results depend on its history, which must be the episode's own. The
+least recently used problems beyond ``NLP_BUDGET`` instructions (≈ 160 MB) are forgotten.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from resilient_tracking.planning.cache import LruCache
+from resilient_tracking.planning.layout import Slots, Structure
+from resilient_tracking.planning.nlp import LeagueNLP
+from resilient_tracking.planning.solver_options import SQP_MARGIN
+
+log = logging.getLogger(__name__)
+
+NLP_BUDGET = 4_000_000
+_NLPS: LruCache[tuple[Structure, float, Slots | None], LeagueNLP] = LruCache(
+    NLP_BUDGET, weigh=lambda nlp: nlp.n_instructions
+)
+
+#: solvers created so far in this process (each holds native memory: see :func:`solver_builds`)
+_BUILDS = {"solvers": 0}
+
+
+def nlp_cache() -> LruCache[tuple[Structure, float, Slots | None], LeagueNLP]:
+    """The process-wide cache of symbolic problems (its size, builds and evictions)."""
+    return _NLPS
+
+
+def solver_builds() -> int:
+    """How many solvers (SQP or IPOPT, per problem) were created so far in this process."""
+    return _BUILDS["solvers"]
+
+
+def count_solver_build() -> None:
+    _BUILDS["solvers"] += 1
+
+
+def shared_nlp(
+    structure: Structure, margin: float = SQP_MARGIN, slots: Slots | None = None
+) -> LeagueNLP:
+    """The process-wide :class:`LeagueNLP` of ``structure`` (built on first use)."""
+
+    def build() -> LeagueNLP:
+        log.debug("building league problem %s (slots %s)", structure, slots)
+        return LeagueNLP(structure, margin, slots)
+
+    return _NLPS.get((structure, margin, slots), build)
+
+
+def wait_for_compilers() -> None:
+    """Block until every compile job started in this process is done (for warm-ups)."""
+    for nlp in _NLPS.values():
+        for job in list(nlp.jobs.values()):
+            if job is not None:
+                job.wait()
