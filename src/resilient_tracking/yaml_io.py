@@ -83,9 +83,7 @@ def _float_or_int(loader: BoundedLoader, node: yaml.ScalarNode) -> Any:
 
 # Appended after PyYAML's own resolvers, so it only decides what they leave as a string
 # (``1.0e12``, ``1e5``); integers stay integers.
-BoundedLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789.")
-)
+BoundedLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789."))
 BoundedLoader.add_constructor("tag:yaml.org,2002:float", _float_or_int)
 
 
@@ -154,9 +152,7 @@ def read_text(path: Path, limit: int = MAX_FILE_BYTES) -> str:
     except OSError as err:
         raise YamlInputError("<file>", f"cannot read ({err.strerror})") from None
     if len(data) > limit:
-        raise YamlInputError(
-            "<file>", f"larger than {limit} bytes, the limit for a scenario file"
-        )
+        raise YamlInputError("<file>", f"larger than {limit} bytes, the limit for a scenario file")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:
