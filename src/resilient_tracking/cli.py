@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -56,16 +58,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         print("error: --seed: must be non-negative", file=sys.stderr)
         return 1
 
-    from resilient_tracking.sim.episode import run_episode
-    from resilient_tracking.sim.records import is_run_folder, write_run
-    from resilient_tracking.viz import make_run_figures
+    from resilient_tracking.sim.folders import check_out_folder, folder_lock
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
     out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}")
-    if out.exists() and not is_run_folder(out):
-        print(f"error: --out: {out} exists and is not a run folder", file=sys.stderr)
-        return 1
+    with contextlib.ExitStack() as held:
+        try:  # before the episode: a refused folder costs no run
+            held.enter_context(folder_lock(out))
+            check_out_folder(out, args.overwrite)
+        except (OSError, RuntimeError) as err:
+            print(f"error: --out: {err}", file=sys.stderr)
+            return 1
+        return _run_into(args, scenario, policy, seed, out)
+
+
+def _run_into(
+    args: argparse.Namespace, scenario: Scenario, policy: str, seed: int, out: Path
+) -> int:
+    from resilient_tracking.sim.episode import run_episode
+    from resilient_tracking.sim.records import write_run
+    from resilient_tracking.viz import make_run_figures
+
     figures: list[Path] = []
 
     def finish(folder: Path) -> None:
@@ -82,7 +96,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             result = run_episode(
                 scenario, policy=policy, seed=seed, progress=lambda n: bar.update(n)
             )
-        write_run(result, out, finish=finish)
+        write_run(result, out, finish=finish, overwrite=args.overwrite)
     except Exception as err:  # report, never a traceback; nothing is left half-written
         logging.getLogger(__name__).debug("run failed", exc_info=True)
         print(
@@ -355,6 +369,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--steps", type=int, default=None, help="override the number of steps")
     p.add_argument("--no-figures", action="store_true")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an --out folder holding other files: the run's files are replaced, "
+        "the others kept",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 
@@ -431,13 +451,33 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is cmd_reproduce:
         given = list(sys.argv[1:] if argv is None else argv)
         args.argv = given[given.index("reproduce") + 1 :]
+    signal.signal(signal.SIGTERM, _terminate)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     if args.verbose == 0:
         # Dask's scheduler and workers (child processes too) log at INFO by default
         os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
         logging.getLogger("distributed").setLevel(logging.WARNING)
-    return int(args.func(args))
+    from resilient_tracking.sim.folders import FolderBusyError
+
+    try:
+        return int(args.func(args))
+    except (KeyboardInterrupt, _Terminated) as stop:
+        # compile jobs are stopped at exit (planning.codegen); staging folders are removed
+        what = "terminated" if isinstance(stop, _Terminated) else "interrupted"
+        print(f"\n{what}: finished runs are kept; run the command again to go on", file=sys.stderr)
+        return 143 if isinstance(stop, _Terminated) else 130
+    except FolderBusyError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised like Ctrl-C so cleanup (``finally``, ``atexit``) runs."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise _Terminated()
 
 
 if __name__ == "__main__":

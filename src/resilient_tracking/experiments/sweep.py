@@ -12,13 +12,16 @@ only the parent process writes, so workers need no shared file system.
 
 from __future__ import annotations
 
-import json
 import logging
+import os
 import shutil
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from resilient_tracking.experiments.catalog import Task
+from resilient_tracking.sim import folders
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import EpisodeResult, write_run
 
@@ -33,13 +36,22 @@ def run_dir(out: Path, task: Task) -> Path:
 
 
 def is_done(out: Path, task: Task) -> bool:
-    manifest = run_dir(out, task) / "manifest.json"
-    if not manifest.exists():
+    """Whether ``task``'s run is stored intact: its manifest carries the task's fingerprint and
+    its own checksum, and every table its recorded checksum. A damaged or edited stored run is
+    not done (a warning names the file); it is run again."""
+    folder = run_dir(out, task)
+    if not (folder / "manifest.json").exists():
         return False
-    try:
-        return bool(json.loads(manifest.read_text())["fingerprint"] == task.fingerprint)
-    except (ValueError, KeyError):
-        return False
+    damage = folders.verify(folder)
+    if damage is None:
+        try:
+            if folders.read_manifest(folder).get("fingerprint") == task.fingerprint:
+                return True
+        except (OSError, ValueError) as err:  # pragma: no cover - verify read it just now
+            damage = str(err)
+    if damage is not None:
+        log.warning("stored run %s cannot be trusted (%s); running it again", folder, damage)
+    return False
 
 
 def run_task(task: Task) -> tuple[str, EpisodeResult]:
@@ -56,8 +68,8 @@ def run_task(task: Task) -> tuple[str, EpisodeResult]:
 
 def store(out: Path, task: Task, result: EpisodeResult) -> Path:
     """Write a finished run; ``write_run`` stages it and renames it into place, replacing a
-    stale run of the same id."""
-    return write_run(result, run_dir(out, task))
+    stale run of the same id (beside any file someone else put in its folder, kept)."""
+    return write_run(result, run_dir(out, task), overwrite=True)
 
 
 def clean_partial(out: Path) -> int:
@@ -73,6 +85,38 @@ def clean_partial(out: Path) -> int:
     return len(leftovers)
 
 
+def _watch_parent(parent: int) -> None:
+    """In a worker: exit as soon as ``parent`` (the sweep's process) is gone.
+
+    joblib's workers would otherwise finish their episode (and keep their memory) after the
+    sweep was killed. A daemon thread polls the parent id twice a second; on its death the
+    worker stops its compile jobs and exits at once.
+    """
+    global _WATCHED
+    if _WATCHED or os.getpid() == parent:
+        return
+    _WATCHED = True
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        from resilient_tracking.planning import codegen
+
+        codegen.stop_all()
+        os._exit(1)
+
+    threading.Thread(target=watch, name="watch-parent", daemon=True).start()
+
+
+_WATCHED = False
+
+
+def run_task_of(task: Task, parent: int) -> tuple[str, EpisodeResult]:
+    """:func:`run_task` in a joblib worker that dies with the process ``parent``."""
+    _watch_parent(parent)
+    return run_task(task)
+
+
 def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, EpisodeResult]]:
     if jobs == 1:
         yield from map(run_task, todo)
@@ -80,7 +124,7 @@ def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, Epis
     from joblib import Parallel, delayed
 
     parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    yield from parallel(delayed(run_task)(t) for t in todo)
+    yield from parallel(delayed(run_task_of)(t, os.getpid()) for t in todo)
 
 
 def _dask_results(
@@ -122,6 +166,17 @@ def run_sweep(
     then as each run is stored.
     """
     out = Path(out)
+    with folders.folder_lock(out):
+        return _run_sweep_locked(tasks, out, jobs, dask, on_done)
+
+
+def _run_sweep_locked(
+    tasks: Sequence[Task],
+    out: Path,
+    jobs: int,
+    dask: str | None,
+    on_done: Callable[[Task, bool], object] | None,
+) -> list[Task]:
     removed = clean_partial(out)
     if removed:
         log.info("removed %d partial run folder(s) of an interrupted sweep", removed)
