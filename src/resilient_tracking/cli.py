@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import math
 import os
 import signal
 import sys
@@ -14,6 +15,31 @@ from tqdm import tqdm
 
 from resilient_tracking import __version__
 from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError
+
+#: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
+MAX_SEEDS = 1000
+MAX_FRAMES = 2000
+MAX_FPS = 120
+
+
+def max_jobs() -> int:
+    """More worker processes than four per core only adds memory (about 200 MB each)."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def _out_of_range(name: str, value: float | None, low: float, high: float) -> bool:
+    """Print an error and return True when ``value`` is given and not in ``[low, high]``
+    (NaN is in no range)."""
+    if value is None or low <= value <= high:
+        return False
+    print(f"error: {name}: must be between {low:g} and {high:g} (got {value})", file=sys.stderr)
+    return True
+
+
+def _step(bar: tqdm, n: int) -> None:
+    """Advance a progress bar, first stopping if Ctrl-C or SIGTERM came."""
+    _check_stop()
+    bar.update(n)
 
 
 def _load(path: str) -> Scenario | None:
@@ -94,7 +120,7 @@ def _run_into(
             disable=args.quiet,
         ) as bar:
             result = run_episode(
-                scenario, policy=policy, seed=seed, progress=lambda n: bar.update(n)
+                scenario, policy=policy, seed=seed, progress=lambda n: _step(bar, n)
             )
         write_run(result, out, finish=finish, overwrite=args.overwrite)
     except Exception as err:  # report, never a traceback; nothing is left half-written
@@ -121,10 +147,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from resilient_tracking.experiments.report import write_report
     from resilient_tracking.experiments.sweep import run_sweep
 
-    for name, value in (("--seeds", args.seeds), ("--jobs", args.jobs)):
-        if value is not None and value < 1:
-            print(f"error: {name}: must be at least 1", file=sys.stderr)
-            return 1
+    if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
+        return 1
+    if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
+        return 1
     try:
         experiments = select(args.names, quick=args.quick)
         plan = {e.name: tasks(e, args.seeds) for e in experiments}
@@ -138,7 +164,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
-            everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: bar.update(1)
+            everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
         )
     command = " ".join(["rtrack reproduce", *args.argv])
     report = write_report(experiments, plan, out, command)
@@ -157,8 +183,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     )
     from resilient_tracking.experiments.sweep import run_sweep
 
-    if args.jobs < 1:
-        print("error: --jobs: must be at least 1", file=sys.stderr)
+    if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
+        return 1
+    if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
         return 1
     try:
         overrides = [parse_override(text) for text in args.set]
@@ -171,7 +198,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
-            tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: bar.update(1)
+            tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
         )
     given = list(sys.argv[1:] if args.argv is None else args.argv)
     command = " ".join(["rtrack compare", *given[given.index("compare") + 1 :]])
@@ -183,6 +210,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_animate(args: argparse.Namespace) -> int:
     from resilient_tracking.viz.animate import animate_run, ffmpeg_path
 
+    if _out_of_range("--frames", args.frames, 2, MAX_FRAMES):
+        return 1
+    if _out_of_range("--fps", args.fps, 1, MAX_FPS):
+        return 1
     passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
     try:
         with tqdm(
@@ -195,7 +226,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
                 fps=args.fps,
                 progress=lambda n: bar.update(n),
             )
-    except (FileNotFoundError, ValueError) as err:
+    except (OSError, ValueError) as err:  # each names its file
         print(f"error: {err}", file=sys.stderr)
         return 1
     print("wrote " + ", ".join(str(p) for p in written))
@@ -222,9 +253,14 @@ def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] |
         print("error: --seed: must be non-negative", file=sys.stderr)
         return None
     for name in ("pose_timeout", "observation_timeout", "give_up", "startup_timeout"):
-        if getattr(args, name) <= 0:
+        value = getattr(args, name)
+        if not (0 < value < math.inf):  # NaN fails too
             print(f"error: --{name.replace('_', '-')}: must be positive", file=sys.stderr)
             return None
+    if _out_of_range("--altitude", args.altitude, 0.0, 1000.0):  # NaN too
+        return None
+    if _out_of_range("--domain", args.domain, 0, 232):  # the DDS domain ids ROS 2 allows
+        return None
     settings = NodeSettings.for_scenario(
         scenario,
         robot_prefix=args.robot_prefix,
@@ -451,7 +487,8 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is cmd_reproduce:
         given = list(sys.argv[1:] if argv is None else argv)
         args.argv = given[given.index("reproduce") + 1 :]
-    signal.signal(signal.SIGTERM, _terminate)
+    _RECEIVED.clear()
+    previous = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     if args.verbose == 0:
@@ -464,20 +501,53 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args))
     except (KeyboardInterrupt, _Terminated) as stop:
         # compile jobs are stopped at exit (planning.codegen); staging folders are removed
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)  # a second Ctrl-C must not break the cleanup
         what = "terminated" if isinstance(stop, _Terminated) else "interrupted"
         print(f"\n{what}: finished runs are kept; run the command again to go on", file=sys.stderr)
-        return 143 if isinstance(stop, _Terminated) else 130
+        code = 143 if isinstance(stop, _Terminated) else 130
+        if argv is None:  # the command itself, not a call from Python
+            _exit_now(code)
+        return code
     except FolderBusyError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
+    finally:
+        if not _RECEIVED:  # called as a function (tests): leave the handlers as they were
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
 
 class _Terminated(BaseException):
     """SIGTERM, raised like Ctrl-C so cleanup (``finally``, ``atexit``) runs."""
 
 
-def _terminate(signum: int, frame: object) -> None:
-    raise _Terminated()
+#: Signals received: CasADi turns a KeyboardInterrupt raised inside a solve into a failed
+#: solve, which the planner handles, so :func:`_check_stop` raises it again at the next step.
+_RECEIVED: list[int] = []
+
+
+def _on_signal(signum: int, frame: object) -> None:
+    _RECEIVED.append(signum)
+    raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _exit_now(code: int) -> None:
+    """Exit with ``code`` once cleanup is done. A Ctrl-C that arrived while an extension module
+    ran Python code is remembered by the interpreter, which would then end the process by
+    SIGINT instead of with ``code``."""
+    codegen = sys.modules.get("resilient_tracking.planning.codegen")
+    if codegen is not None:
+        codegen.stop_all()
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def _check_stop() -> None:
+    if _RECEIVED:
+        raise _Terminated() if _RECEIVED[0] == signal.SIGTERM else KeyboardInterrupt()
 
 
 if __name__ == "__main__":
