@@ -37,13 +37,14 @@ def edge_values() -> list[float]:
     """Every bound written in the scenario models (``ge``/``le`` as is, ``gt``/``lt`` one ulp
     inside) and the module's limits, positive and negative."""
     values = {0.0, 1.0, MIN_VARIANCE, MAX_VARIANCE, MAX_COORDINATE, -MAX_COORDINATE, MAX_DT}
-    for section in sections():
-        for field in section.model.model_fields.values():
-            for rule in field.metadata:
-                for name, inward in (("ge", None), ("le", None), ("gt", math.inf), ("lt", -math.inf)):
-                    bound = getattr(rule, name, None)
-                    if isinstance(bound, int | float) and math.isfinite(bound):
-                        values.add(float(bound if inward is None else math.nextafter(bound, inward)))
+    inward = {"ge": None, "le": None, "gt": math.inf, "lt": -math.inf}
+    rules = [r for s in sections() for f in s.model.model_fields.values() for r in f.metadata]
+    for rule in rules:
+        for name, direction in inward.items():
+            bound = getattr(rule, name, None)
+            if isinstance(bound, int | float) and math.isfinite(bound):
+                edge = bound if direction is None else math.nextafter(bound, direction)
+                values.add(float(edge))
     return sorted(values)
 
 
@@ -107,9 +108,7 @@ def scenario_at_the_edges(draw: st.DrawFn) -> dict[str, Any]:
 )
 @given(scenario_at_the_edges(), st.sampled_from(POLICY_NAMES))
 @pytest.mark.filterwarnings("error::RuntimeWarning")  # an overflow or 0/0 is a numerical bug
-def test_every_policy_runs_scenarios_at_the_edges_of_the_bounds_with_finite_numbers(
-    data, policy
-):
+def test_every_policy_runs_scenarios_at_the_edges_of_the_bounds_with_finite_numbers(data, policy):
     result = run_episode(parse_scenario(data), policy=policy)
     assert len(result["team"]) == 3
     for name, table in result.tables.items():

@@ -39,8 +39,10 @@ def test_a_truncated_stored_table_is_redone_with_a_warning(tmp_path, caplog):
     with caplog.at_level(logging.WARNING):
         ran = run_sweep(todo, tmp_path)
     assert [t.run_id for t in ran] == [todo[0].run_id]
-    assert any(str(team) in r.getMessage() and "running it again" in r.getMessage()
-               for r in caplog.records)
+    assert any(
+        str(team) in r.getMessage() and "running that stored run again" in r.getMessage()
+        for r in caplog.records
+    )
     pd.testing.assert_frame_equal(pd.read_parquet(team), before)
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -50,7 +51,7 @@ def is_done(out: Path, task: Task) -> bool:
         except (OSError, ValueError) as err:  # pragma: no cover - verify read it just now
             damage = str(err)
     if damage is not None:
-        log.warning("stored run %s cannot be trusted (%s); running it again", folder, damage)
+        log.warning("%s; running that stored run again", damage)
     return False
 
 
@@ -85,17 +86,17 @@ def clean_partial(out: Path) -> int:
     return len(leftovers)
 
 
-def _watch_parent(parent: int) -> None:
-    """In a worker: exit as soon as ``parent`` (the sweep's process) is gone.
+def _worker_setup(parent: int) -> None:
+    """In each joblib worker, before any task: leave Ctrl-C to the parent (a terminal sends it
+    to the workers too; the parent stops them), and exit as soon as ``parent`` is gone.
 
     joblib's workers would otherwise finish their episode (and keep their memory) after the
     sweep was killed. A daemon thread polls the parent id twice a second; on its death the
     worker stops its compile jobs and exits at once.
     """
-    global _WATCHED
-    if _WATCHED or os.getpid() == parent:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if os.getpid() == parent:
         return
-    _WATCHED = True
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -108,23 +109,15 @@ def _watch_parent(parent: int) -> None:
     threading.Thread(target=watch, name="watch-parent", daemon=True).start()
 
 
-_WATCHED = False
-
-
-def run_task_of(task: Task, parent: int) -> tuple[str, EpisodeResult]:
-    """:func:`run_task` in a joblib worker that dies with the process ``parent``."""
-    _watch_parent(parent)
-    return run_task(task)
-
-
 def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, EpisodeResult]]:
     if jobs == 1:
         yield from map(run_task, todo)
         return
-    from joblib import Parallel, delayed
+    from joblib import Parallel, delayed, parallel_config
 
-    parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    yield from parallel(delayed(run_task_of)(t, os.getpid()) for t in todo)
+    with parallel_config(backend="loky", initializer=_worker_setup, initargs=(os.getpid(),)):
+        parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
+        yield from parallel(delayed(run_task)(t) for t in todo)
 
 
 def _dask_results(
