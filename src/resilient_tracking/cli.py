@@ -94,7 +94,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             held.enter_context(folder_lock(out))
             check_out_folder(out, args.overwrite)
         except (OSError, RuntimeError) as err:
-            print(f"error: --out: {err}", file=sys.stderr)
+            why = str(err)
+            if isinstance(err, OSError) and err.strerror:
+                why = f"{out}: cannot write there ({err.strerror}: {err.filename})"
+            print(f"error: --out: {why}", file=sys.stderr)
             return 1
         return _run_into(args, scenario, policy, seed, out)
 
@@ -161,6 +164,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+        return 1
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
@@ -196,6 +202,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+        return 1
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
             tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
@@ -510,6 +519,9 @@ def main(argv: list[str] | None = None) -> int:
             _exit_now(code)
         return code
     except FolderBusyError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    except OSError as err:  # a file we could not write or read; the message names it
         print(f"error: {err}", file=sys.stderr)
         return 1
     finally:
