@@ -7,13 +7,12 @@ import contextlib
 import logging
 import math
 import os
-import signal
 import sys
 from pathlib import Path
 
 from tqdm import tqdm
 
-from resilient_tracking import __version__
+from resilient_tracking import __version__, interrupts
 from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError
 
 #: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
@@ -38,7 +37,7 @@ def _out_of_range(name: str, value: float | None, low: float, high: float) -> bo
 
 def _step(bar: tqdm, n: int) -> None:
     """Advance a progress bar, first stopping if Ctrl-C or SIGTERM came."""
-    _check_stop()
+    interrupts.check()
     bar.update(n)
 
 
@@ -496,8 +495,6 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is cmd_reproduce:
         given = list(sys.argv[1:] if argv is None else argv)
         args.argv = given[given.index("reproduce") + 1 :]
-    _RECEIVED.clear()
-    previous = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     if args.verbose == 0:
@@ -507,59 +504,23 @@ def main(argv: list[str] | None = None) -> int:
     from resilient_tracking.sim.folders import FolderBusyError
 
     try:
-        return int(args.func(args))
-    except (KeyboardInterrupt, _Terminated) as stop:
+        with interrupts.catching():
+            return int(args.func(args))
+    except (KeyboardInterrupt, interrupts.Terminated) as stop:
         # compile jobs are stopped at exit (planning.codegen); staging folders are removed
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, signal.SIG_IGN)  # a second Ctrl-C must not break the cleanup
-        what = "terminated" if isinstance(stop, _Terminated) else "interrupted"
+        interrupts.ignore_more()
+        term = isinstance(stop, interrupts.Terminated)
+        what = "terminated" if term else "interrupted"
         print(f"\n{what}: finished runs are kept; run the command again to go on", file=sys.stderr)
-        code = 143 if isinstance(stop, _Terminated) else 130
         if argv is None:  # the command itself, not a call from Python
-            _exit_now(code)
-        return code
+            interrupts.exit_now(143 if term else 130)
+        return 143 if term else 130
     except FolderBusyError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
     except OSError as err:  # a file we could not write or read; the message names it
         print(f"error: {err}", file=sys.stderr)
         return 1
-    finally:
-        if not _RECEIVED:  # called as a function (tests): leave the handlers as they were
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
-
-
-class _Terminated(BaseException):
-    """SIGTERM, raised like Ctrl-C so cleanup (``finally``, ``atexit``) runs."""
-
-
-#: Signals received: CasADi turns a KeyboardInterrupt raised inside a solve into a failed
-#: solve, which the planner handles, so :func:`_check_stop` raises it again at the next step.
-_RECEIVED: list[int] = []
-
-
-def _on_signal(signum: int, frame: object) -> None:
-    _RECEIVED.append(signum)
-    raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
-
-
-def _exit_now(code: int) -> None:
-    """Exit with ``code`` once cleanup is done. A Ctrl-C that arrived while an extension module
-    ran Python code is remembered by the interpreter, which would then end the process by
-    SIGINT instead of with ``code``."""
-    codegen = sys.modules.get("resilient_tracking.planning.codegen")
-    if codegen is not None:
-        codegen.stop_all()
-    logging.shutdown()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
-
-
-def _check_stop() -> None:
-    if _RECEIVED:
-        raise _Terminated() if _RECEIVED[0] == signal.SIGTERM else KeyboardInterrupt()
 
 
 if __name__ == "__main__":
