@@ -87,16 +87,19 @@ def clean_partial(out: Path) -> int:
 
 
 def _worker_setup(parent: int) -> None:
-    """In each joblib worker, before any task: leave Ctrl-C to the parent (a terminal sends it
-    to the workers too; the parent stops them), and exit as soon as ``parent`` is gone.
+    """In a joblib worker, once: leave Ctrl-C to the parent (a terminal sends it to the
+    workers too; the parent stops them), and exit as soon as ``parent`` is gone.
 
     joblib's workers would otherwise finish their episode (and keep their memory) after the
     sweep was killed. A daemon thread polls the parent id twice a second; on its death the
-    worker stops its compile jobs and exits at once.
+    worker stops its compile jobs and exits at once. (Done in the first task rather than as
+    an executor initializer, so the worker pool stays the one plain ``joblib.Parallel`` uses.)
     """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if os.getpid() == parent:
+    global _SET_UP
+    if _SET_UP or os.getpid() == parent:
         return
+    _SET_UP = True
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def watch() -> None:
         while os.getppid() == parent:
@@ -109,15 +112,23 @@ def _worker_setup(parent: int) -> None:
     threading.Thread(target=watch, name="watch-parent", daemon=True).start()
 
 
+_SET_UP = False
+
+
+def run_task_in_worker(task: Task, parent: int) -> tuple[str, EpisodeResult]:
+    """:func:`run_task` in a joblib worker of the process ``parent``."""
+    _worker_setup(parent)
+    return run_task(task)
+
+
 def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, EpisodeResult]]:
     if jobs == 1:
         yield from map(run_task, todo)
         return
-    from joblib import Parallel, delayed, parallel_config
+    from joblib import Parallel, delayed
 
-    with parallel_config(backend="loky", initializer=_worker_setup, initargs=(os.getpid(),)):
-        parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-        yield from parallel(delayed(run_task)(t) for t in todo)
+    parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
+    yield from parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
 
 
 def _dask_results(
