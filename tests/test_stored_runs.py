@@ -149,3 +149,15 @@ def test_ctrl_c_and_a_killed_parent_leave_no_worker_and_keep_finished_runs(tmp_p
         assert wait_for(lambda: not any(alive(w) for w in workers), 15)
     finally:
         stop_group(proc)
+
+
+def test_lock_files_of_killed_run_writes_are_removed_by_the_next_sweep(tmp_path):
+    todo = tiny_tasks()
+    stale = run_dir(tmp_path, todo[0]).parent / f".{run_dir(tmp_path, todo[0]).name}.lock"
+    stale.parent.mkdir(parents=True)
+    stale.write_text("12345\n")  # left by a write killed with SIGKILL
+    mine = stale.parent / "notes.lock.txt"
+    mine.write_text("keep")
+    run_sweep(todo, tmp_path)
+    assert not stale.exists() and mine.exists()
+    assert not list((tmp_path / "runs").glob("*/*/.*"))

@@ -74,15 +74,18 @@ def store(out: Path, task: Task, result: EpisodeResult) -> Path:
 
 
 def clean_partial(out: Path) -> int:
-    """Remove staging folders left by a killed sweep; returns how many."""
+    """Remove staging folders left by a killed sweep; returns how many. Called with the
+    sweep's lock held, so a run folder's ``.NAME.lock`` left by a killed write is stale too
+    and is removed."""
     runs = Path(out) / "runs"
-    leftovers = (
-        [p for pattern in PARTIAL for p in runs.glob(f"*/*/{pattern}") if p.is_dir()]
-        if runs.exists()
-        else []
-    )
+    if not runs.exists():
+        return 0
+    leftovers = [p for pattern in PARTIAL for p in runs.glob(f"*/*/{pattern}") if p.is_dir()]
     for p in leftovers:
         shutil.rmtree(p, ignore_errors=True)
+    for lock in runs.glob("*/*/.*.lock"):
+        if lock.is_file():
+            lock.unlink(missing_ok=True)
     return len(leftovers)
 
 
