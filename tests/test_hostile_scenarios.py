@@ -16,6 +16,7 @@ The number of examples is the hypothesis profile's: ``ci`` (default) or ``thorou
 from __future__ import annotations
 
 import copy
+import json
 import math
 import re
 import tempfile
@@ -23,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
 from hypothesis import HealthCheck, assume, currently_in_test_context, event, given, settings
@@ -535,9 +537,30 @@ def test_rerun_replaces_a_run_folder_whole(tmp_path):
     out = tmp_path / "out"
     argv = ["run", str(SCENARIOS / "sensing-temp.yaml"), "--out", str(out), "--no-figures", "-q"]
     assert run_cli([*argv, "--steps", "3"])[0] == 0
-    (out / "stale.txt").write_text("from an older run")
+    (out / "figures").mkdir()
+    (out / "figures" / "trajectories.png").write_bytes(b"ours, from a run with figures")
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["files"]["figures/trajectories.png"] = "0" * 64
+    (out / "manifest.json").write_text(json.dumps(manifest))
     assert run_cli([*argv, "--steps", "4"])[0] == 0
-    assert not (out / "stale.txt").exists()
+    assert not (out / "figures").exists()  # ours: replaced with the folder
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_rerun_never_deletes_what_the_user_added(tmp_path):
+    out = tmp_path / "out"
+    argv = ["run", str(SCENARIOS / "sensing-temp.yaml"), "--out", str(out), "--no-figures", "-q"]
+    assert run_cli([*argv, "--steps", "3"])[0] == 0
+    (out / "notes.txt").write_text("mine")
+    (out / "mywork").mkdir()
+    (out / "mywork" / "a.csv").write_text("1,2")
+    code, _, err = run_cli([*argv, "--steps", "4"])
+    assert code == 1 and "notes.txt" in err and "mywork/" in err and "--overwrite" in err
+    assert len(pd.read_parquet(out / "team.parquet")) == 3
+    assert run_cli([*argv, "--steps", "4", "--overwrite"])[0] == 0
+    assert len(pd.read_parquet(out / "team.parquet")) == 4
+    assert (out / "notes.txt").read_text() == "mine"
+    assert (out / "mywork" / "a.csv").read_text() == "1,2"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 

@@ -3,15 +3,42 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
+import math
 import os
 import sys
 from pathlib import Path
 
 from tqdm import tqdm
 
-from resilient_tracking import __version__
+from resilient_tracking import __version__, interrupts
 from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError
+
+#: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
+MAX_SEEDS = 1000
+MAX_FRAMES = 2000
+MAX_FPS = 120
+
+
+def max_jobs() -> int:
+    """More worker processes than four per core only adds memory (about 200 MB each)."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def _out_of_range(name: str, value: float | None, low: float, high: float) -> bool:
+    """Print an error and return True when ``value`` is given and not in ``[low, high]``
+    (NaN is in no range)."""
+    if value is None or low <= value <= high:
+        return False
+    print(f"error: {name}: must be between {low:g} and {high:g} (got {value})", file=sys.stderr)
+    return True
+
+
+def _step(bar: tqdm, n: int) -> None:
+    """Advance a progress bar, first stopping if Ctrl-C or SIGTERM came."""
+    interrupts.check()
+    bar.update(n)
 
 
 def _load(path: str) -> Scenario | None:
@@ -56,16 +83,31 @@ def cmd_run(args: argparse.Namespace) -> int:
         print("error: --seed: must be non-negative", file=sys.stderr)
         return 1
 
-    from resilient_tracking.sim.episode import run_episode
-    from resilient_tracking.sim.records import is_run_folder, write_run
-    from resilient_tracking.viz import make_run_figures
+    from resilient_tracking.sim.folders import check_out_folder, folder_lock
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
     out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}")
-    if out.exists() and not is_run_folder(out):
-        print(f"error: --out: {out} exists and is not a run folder", file=sys.stderr)
-        return 1
+    with contextlib.ExitStack() as held:
+        try:  # before the episode: a refused folder costs no run
+            held.enter_context(folder_lock(out))
+            check_out_folder(out, args.overwrite)
+        except (OSError, RuntimeError) as err:
+            why = str(err)
+            if isinstance(err, OSError) and err.strerror:
+                why = f"{out}: cannot write there ({err.strerror}: {err.filename})"
+            print(f"error: --out: {why}", file=sys.stderr)
+            return 1
+        return _run_into(args, scenario, policy, seed, out)
+
+
+def _run_into(
+    args: argparse.Namespace, scenario: Scenario, policy: str, seed: int, out: Path
+) -> int:
+    from resilient_tracking.sim.episode import run_episode
+    from resilient_tracking.sim.records import write_run
+    from resilient_tracking.viz import make_run_figures
+
     figures: list[Path] = []
 
     def finish(folder: Path) -> None:
@@ -80,9 +122,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             disable=args.quiet,
         ) as bar:
             result = run_episode(
-                scenario, policy=policy, seed=seed, progress=lambda n: bar.update(n)
+                scenario, policy=policy, seed=seed, progress=lambda n: _step(bar, n)
             )
-        write_run(result, out, finish=finish)
+        write_run(result, out, finish=finish, overwrite=args.overwrite)
     except Exception as err:  # report, never a traceback; nothing is left half-written
         logging.getLogger(__name__).debug("run failed", exc_info=True)
         print(
@@ -107,10 +149,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from resilient_tracking.experiments.report import write_report
     from resilient_tracking.experiments.sweep import run_sweep
 
-    for name, value in (("--seeds", args.seeds), ("--jobs", args.jobs)):
-        if value is not None and value < 1:
-            print(f"error: {name}: must be at least 1", file=sys.stderr)
-            return 1
+    if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
+        return 1
+    if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
+        return 1
     try:
         experiments = select(args.names, quick=args.quick)
         plan = {e.name: tasks(e, args.seeds) for e in experiments}
@@ -121,10 +163,13 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+        return 1
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
-            everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: bar.update(1)
+            everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
         )
     command = " ".join(["rtrack reproduce", *args.argv])
     report = write_report(experiments, plan, out, command)
@@ -143,8 +188,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     )
     from resilient_tracking.experiments.sweep import run_sweep
 
-    if args.jobs < 1:
-        print("error: --jobs: must be at least 1", file=sys.stderr)
+    if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
+        return 1
+    if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
         return 1
     try:
         overrides = [parse_override(text) for text in args.set]
@@ -155,9 +201,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+        return 1
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
-            tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: bar.update(1)
+            tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
         )
     given = list(sys.argv[1:] if args.argv is None else args.argv)
     command = " ".join(["rtrack compare", *given[given.index("compare") + 1 :]])
@@ -169,6 +218,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_animate(args: argparse.Namespace) -> int:
     from resilient_tracking.viz.animate import animate_run, ffmpeg_path
 
+    if _out_of_range("--frames", args.frames, 2, MAX_FRAMES):
+        return 1
+    if _out_of_range("--fps", args.fps, 1, MAX_FPS):
+        return 1
     passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
     try:
         with tqdm(
@@ -181,7 +234,7 @@ def cmd_animate(args: argparse.Namespace) -> int:
                 fps=args.fps,
                 progress=lambda n: bar.update(n),
             )
-    except (FileNotFoundError, ValueError) as err:
+    except (OSError, ValueError) as err:  # each names its file
         print(f"error: {err}", file=sys.stderr)
         return 1
     print("wrote " + ", ".join(str(p) for p in written))
@@ -208,9 +261,14 @@ def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] |
         print("error: --seed: must be non-negative", file=sys.stderr)
         return None
     for name in ("pose_timeout", "observation_timeout", "give_up", "startup_timeout"):
-        if getattr(args, name) <= 0:
+        value = getattr(args, name)
+        if not (0 < value < math.inf):  # NaN fails too
             print(f"error: --{name.replace('_', '-')}: must be positive", file=sys.stderr)
             return None
+    if _out_of_range("--altitude", args.altitude, 0.0, 1000.0):  # NaN too
+        return None
+    if _out_of_range("--domain", args.domain, 0, 232):  # the DDS domain ids ROS 2 allows
+        return None
     settings = NodeSettings.for_scenario(
         scenario,
         robot_prefix=args.robot_prefix,
@@ -355,6 +413,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--steps", type=int, default=None, help="override the number of steps")
     p.add_argument("--no-figures", action="store_true")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an --out folder holding other files: the run's files are replaced, "
+        "the others kept",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)
 
@@ -437,7 +501,26 @@ def main(argv: list[str] | None = None) -> int:
         # Dask's scheduler and workers (child processes too) log at INFO by default
         os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
         logging.getLogger("distributed").setLevel(logging.WARNING)
-    return int(args.func(args))
+    from resilient_tracking.sim.folders import FolderBusyError
+
+    try:
+        with interrupts.catching():
+            return int(args.func(args))
+    except (KeyboardInterrupt, interrupts.Terminated) as stop:
+        # compile jobs are stopped at exit (planning.codegen); staging folders are removed
+        interrupts.ignore_more()
+        term = isinstance(stop, interrupts.Terminated)
+        what = "terminated" if term else "interrupted"
+        print(f"\n{what}: finished runs are kept; run the command again to go on", file=sys.stderr)
+        if argv is None:  # the command itself, not a call from Python
+            interrupts.exit_now(143 if term else 130)
+        return 143 if term else 130
+    except FolderBusyError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    except OSError as err:  # a file we could not write or read; the message names it
+        print(f"error: {err}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -8,11 +8,11 @@ A scenario is a YAML mapping validated by the pydantic models below. ``load_scen
 from __future__ import annotations
 
 import math
+import reprlib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from pydantic import Strict as StrictMode
 
@@ -22,6 +22,10 @@ MAX_COORDINATE = 1e6
 #: flatter Σ is numerically singular for the chance constraints and the Mahalanobis tests.
 MAX_VARIANCE = 1e12
 MIN_COVARIANCE_RATIO = 1e-9
+#: Smallest eigenvalue (m²) of a covariance: below it the Gaussian density's normaliser
+#: 1/(2π√det Σ) overflows (det Σ underflows to 0 near 1e-300), so the hazard and the risk maps
+#: would be NaN. 1e-6 m² is a 1 mm standard deviation, far below any sensor's.
+MIN_VARIANCE = 1e-6
 #: Upper bounds on sizes: the league NLP grows with robots × targets × zones, so a team beyond
 #: these is refused up front rather than left to exhaust memory while the problem is built.
 MAX_ROBOTS = 64
@@ -267,6 +271,11 @@ def _check_covariance(value: Matrix2) -> Matrix2:
     eig = np.linalg.eigvalsh(m)
     if eig.min() <= 0:
         raise ValueError("must be positive definite")
+    if eig.min() < MIN_VARIANCE:
+        raise ValueError(
+            f"is too small: its smallest eigenvalue {eig.min():.3g} m² is below {MIN_VARIANCE:g} "
+            "m², where the Gaussian density of the zone center is no longer a finite number"
+        )
     if eig.min() < MIN_COVARIANCE_RATIO * eig.max():
         raise ValueError(
             f"is too close to singular (eigenvalue ratio {eig.min() / eig.max():.3g} is below "
@@ -741,8 +750,14 @@ class ScenarioError(ValueError):
         super().__init__(f"{source}: {len(problems)} problem(s)\n{lines}")
 
 
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxdict = 3, 8, 8
+_REPR.maxstring, _REPR.maxother, _REPR.maxlong = 60, 60, 40
+
+
 def _short(value: Any, limit: int = 80) -> str:
-    text = repr(value)
+    """A bounded ``repr``: never renders more than a few items of a large input."""
+    text = _REPR.repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
@@ -808,18 +823,11 @@ def parse_scenario(data: Any, source: str = "<scenario>") -> Scenario:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a YAML scenario file."""
-    path = Path(path)
+    """Read and validate a YAML scenario file (bounded: :mod:`resilient_tracking.yaml_io`)."""
+    from resilient_tracking.yaml_io import YamlInputError, read_yaml
+
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise ScenarioError(str(path), [f"<file>: cannot read ({err.strerror})"]) from None
-    except UnicodeDecodeError as err:
-        raise ScenarioError(str(path), [f"<file>: not UTF-8 text ({err.reason})"]) from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ScenarioError(str(path), [f"<yaml>: not valid YAML ({err})"]) from None
-    except RecursionError:
-        raise ScenarioError(str(path), ["<yaml>: nested too deeply to be a scenario"]) from None
+        data = read_yaml(path)
+    except YamlInputError as err:
+        raise ScenarioError(str(path), [str(err)]) from None
     return parse_scenario(data, str(path))

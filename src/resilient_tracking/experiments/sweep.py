@@ -12,13 +12,17 @@ only the parent process writes, so workers need no shared file system.
 
 from __future__ import annotations
 
-import json
 import logging
+import os
 import shutil
+import signal
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from resilient_tracking.experiments.catalog import Task
+from resilient_tracking.sim import folders
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import EpisodeResult, write_run
 
@@ -33,13 +37,22 @@ def run_dir(out: Path, task: Task) -> Path:
 
 
 def is_done(out: Path, task: Task) -> bool:
-    manifest = run_dir(out, task) / "manifest.json"
-    if not manifest.exists():
+    """Whether ``task``'s run is stored intact: its manifest carries the task's fingerprint and
+    its own checksum, and every table its recorded checksum. A damaged or edited stored run is
+    not done (a warning names the file); it is run again."""
+    folder = run_dir(out, task)
+    if not (folder / "manifest.json").exists():
         return False
-    try:
-        return bool(json.loads(manifest.read_text())["fingerprint"] == task.fingerprint)
-    except (ValueError, KeyError):
-        return False
+    damage = folders.verify(folder)
+    if damage is None:
+        try:
+            if folders.read_manifest(folder).get("fingerprint") == task.fingerprint:
+                return True
+        except (OSError, ValueError) as err:  # pragma: no cover - verify read it just now
+            damage = str(err)
+    if damage is not None:
+        log.warning("%s; running that stored run again", damage)
+    return False
 
 
 def run_task(task: Task) -> tuple[str, EpisodeResult]:
@@ -56,21 +69,59 @@ def run_task(task: Task) -> tuple[str, EpisodeResult]:
 
 def store(out: Path, task: Task, result: EpisodeResult) -> Path:
     """Write a finished run; ``write_run`` stages it and renames it into place, replacing a
-    stale run of the same id."""
-    return write_run(result, run_dir(out, task))
+    stale run of the same id (beside any file someone else put in its folder, kept)."""
+    return write_run(result, run_dir(out, task), overwrite=True)
 
 
 def clean_partial(out: Path) -> int:
-    """Remove staging folders left by a killed sweep; returns how many."""
+    """Remove staging folders left by a killed sweep; returns how many. Called with the
+    sweep's lock held, so a run folder's ``.NAME.lock`` left by a killed write is stale too
+    and is removed."""
     runs = Path(out) / "runs"
-    leftovers = (
-        [p for pattern in PARTIAL for p in runs.glob(f"*/*/{pattern}") if p.is_dir()]
-        if runs.exists()
-        else []
-    )
+    if not runs.exists():
+        return 0
+    leftovers = [p for pattern in PARTIAL for p in runs.glob(f"*/*/{pattern}") if p.is_dir()]
     for p in leftovers:
         shutil.rmtree(p, ignore_errors=True)
+    for lock in runs.glob("*/*/.*.lock"):
+        if lock.is_file():
+            lock.unlink(missing_ok=True)
     return len(leftovers)
+
+
+def _worker_setup(parent: int) -> None:
+    """In a joblib worker, once: leave Ctrl-C to the parent (a terminal sends it to the
+    workers too; the parent stops them), and exit as soon as ``parent`` is gone.
+
+    joblib's workers would otherwise finish their episode (and keep their memory) after the
+    sweep was killed. A daemon thread polls the parent id twice a second; on its death the
+    worker stops its compile jobs and exits at once. (Done in the first task rather than as
+    an executor initializer, so the worker pool stays the one plain ``joblib.Parallel`` uses.)
+    """
+    global _SET_UP
+    if _SET_UP or os.getpid() == parent:
+        return
+    _SET_UP = True
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        from resilient_tracking.planning import codegen
+
+        codegen.stop_all()
+        os._exit(1)
+
+    threading.Thread(target=watch, name="watch-parent", daemon=True).start()
+
+
+_SET_UP = False
+
+
+def run_task_in_worker(task: Task, parent: int) -> tuple[str, EpisodeResult]:
+    """:func:`run_task` in a joblib worker of the process ``parent``."""
+    _worker_setup(parent)
+    return run_task(task)
 
 
 def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, EpisodeResult]]:
@@ -80,7 +131,7 @@ def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, Epis
     from joblib import Parallel, delayed
 
     parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    yield from parallel(delayed(run_task)(t) for t in todo)
+    yield from parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
 
 
 def _dask_results(
@@ -122,6 +173,17 @@ def run_sweep(
     then as each run is stored.
     """
     out = Path(out)
+    with folders.folder_lock(out):
+        return _run_sweep_locked(tasks, out, jobs, dask, on_done)
+
+
+def _run_sweep_locked(
+    tasks: Sequence[Task],
+    out: Path,
+    jobs: int,
+    dask: str | None,
+    on_done: Callable[[Task, bool], object] | None,
+) -> list[Task]:
     removed = clean_partial(out)
     if removed:
         log.info("removed %d partial run folder(s) of an interrupted sweep", removed)

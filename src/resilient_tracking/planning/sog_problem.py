@@ -49,10 +49,26 @@ def zone_rows(means: list[np.ndarray], covs: list[np.ndarray]) -> np.ndarray:
     """Parameter rows ``(L, 6)`` of Gaussian zone estimates."""
     rows = []
     for mu, cov in zip(means, covs, strict=True):
+        cov = _nondegenerate(np.asarray(cov, dtype=float))
         inv = np.linalg.inv(cov)
         norm = 1.0 / (2.0 * math.pi * math.sqrt(np.linalg.det(cov)))
         rows.append([mu[0], mu[1], inv[0, 0], inv[0, 1], inv[1, 1], norm])
     return np.array(rows, dtype=float).reshape(-1, ZONE_COLUMNS)
+
+
+def _nondegenerate(cov: np.ndarray) -> np.ndarray:
+    """``cov`` itself if its density is finite; else (det ≤ 0 or not finite, e.g. a collapsed
+    estimate) ``cov`` with eigenvalues floored at ``max(1e-12 λmax, 1e-12)``, so the risk map is
+    finite instead of a division by zero (a non-finite ``cov`` becomes the identity)."""
+    det = float(np.linalg.det(cov)) if np.all(np.isfinite(cov)) else math.nan
+    if det > 0 and math.isfinite(det) and math.isfinite(1.0 / math.sqrt(det)):
+        return cov
+    log.warning("degenerate zone covariance in the SOG risk map (det %g); repaired", det)
+    if not np.all(np.isfinite(cov)):
+        return np.eye(2)
+    values, vectors = np.linalg.eigh((cov + cov.T) / 2)
+    values = np.maximum(values, max(1e-12 * float(np.abs(values).max()), 1e-12))
+    return np.asarray((vectors * values) @ vectors.T, dtype=float)
 
 
 def failure_likelihood(positions: np.ndarray, zones: np.ndarray, scale: float) -> np.ndarray:

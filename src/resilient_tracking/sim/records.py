@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.sim import folders
+
 #: Tables that are identical, bit for bit, for the same scenario and seed.
 TABLES = ("team", "robots", "targets", "events", "zones", "knowledge")
 #: Wall-clock measurements: the one table that differs between identical runs.
@@ -99,43 +101,58 @@ def frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:
 
 
 def is_run_folder(path: Path) -> bool:
-    """Whether ``path`` is an empty folder or one that :func:`write_run` wrote (replaceable)."""
-    return path.is_dir() and (not any(path.iterdir()) or (path / "manifest.json").is_file())
+    """Whether ``path`` is an empty folder or one that :func:`write_run` wrote, holding nothing
+    else (so it may be replaced whole)."""
+    return path.is_dir() and not folders.foreign_entries(path)
 
 
 def write_run(
     result: EpisodeResult,
     out_dir: str | Path,
     finish: Callable[[Path], object] | None = None,
+    overwrite: bool = False,
 ) -> Path:
     """Write every table and the manifest into ``out_dir``, all or nothing.
 
     Everything is written into a hidden staging folder beside ``out_dir``; ``finish`` (e.g. the
     figures) is then called with the staging folder, and only when all of it succeeded is the
-    staging folder renamed to ``out_dir``. An existing ``out_dir`` is replaced only if it is a
-    run folder (or empty); anything else raises :class:`FileExistsError` before writing.
+    staging folder renamed to ``out_dir``. The manifest records the SHA-256 of every file
+    written (:func:`~resilient_tracking.sim.folders.seal`).
+
+    An existing ``out_dir`` is replaced whole only if this tool wrote everything in it. If it
+    holds anything else, :class:`FileExistsError` is raised before writing, unless
+    ``overwrite``: then the run's files are moved in beside the others, which are kept. The
+    folder is locked while written (:class:`~resilient_tracking.sim.folders.FolderBusyError`
+    if another process holds it), and staging folders of killed writes are removed first.
     """
     out = Path(out_dir)
-    if out.exists() and not is_run_folder(out):
-        raise FileExistsError(f"{out}: exists and is not a run folder; not overwriting it")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".partial"))
-    try:
-        for name in (*TABLES, TIMING):
-            result.tables[name].to_parquet(staging / f"{name}.parquet", index=False)
-        text = json.dumps(result.manifest, indent=2, sort_keys=True, default=str)
-        (staging / "manifest.json").write_text(text + "\n")
-        if finish is not None:
-            finish(staging)
-        os.chmod(staging, 0o755)  # mkdtemp creates 0700; run folders are meant to be shared
-        if out.exists():
-            old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".old"))
-            os.replace(out, old / out.name)
-            os.replace(staging, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(staging, out)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+    with folders.folder_lock(out):
+        folders.clean_stale(out)
+        foreign = folders.check_out_folder(out, overwrite)
+        staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".partial"))
+        try:
+            for name in (*TABLES, TIMING):
+                result.tables[name].to_parquet(staging / f"{name}.parquet", index=False)
+            _write_manifest(staging, result.manifest)
+            if finish is not None:
+                finish(staging)
+            _write_manifest(staging, folders.seal(result.manifest, staging))
+            os.chmod(staging, 0o755)  # mkdtemp creates 0700; run folders are meant to be shared
+            if foreign:
+                folders.merge_into(staging, out)
+            elif out.exists():
+                old = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".old"))
+                os.replace(out, old / out.name)
+                os.replace(staging, out)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(staging, out)
+        except BaseException:
+            shutil.rmtree(staging, ignore_errors=True)
+            raise
     return out
+
+
+def _write_manifest(folder: Path, manifest: dict[str, Any]) -> None:
+    text = json.dumps(manifest, indent=2, sort_keys=True, default=str)
+    (folder / "manifest.json").write_text(text + "\n")

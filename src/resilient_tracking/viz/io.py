@@ -8,7 +8,6 @@ an error naming the table and the missing columns instead of a ``KeyError`` deep
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.sim.folders import read_manifest
 from resilient_tracking.sim.records import COLUMNS, EpisodeResult
 
 logger = logging.getLogger(__name__)
@@ -144,7 +144,10 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
             logger.info("%s not found in %s; using an empty table", path.name, run_dir)
             return pd.DataFrame({c: pd.Series(dtype=object) for c in required})
         raise FileNotFoundError(f"run folder {run_dir} has no {path.name}")
-    df = pd.read_parquet(path)
+    try:
+        df = pd.read_parquet(path)
+    except Exception as err:  # a damaged file: whatever the reader raises, name the file
+        raise ValueError(f"{path}: not a readable table ({type(err).__name__}: {err})") from None
     missing = [c for c in required if c not in df.columns]
     if missing:
         if df.empty:
@@ -171,9 +174,7 @@ def load_run(run_dir: str | Path) -> RunData:
     manifest_path = run_dir / "manifest.json"
     if not manifest_path.exists():
         raise FileNotFoundError(f"run folder {run_dir} has no manifest.json")
-    manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
-    if not isinstance(manifest, dict):
-        raise ValueError(f"{manifest_path}: expected a JSON object, got {type(manifest).__name__}")
+    manifest = read_manifest(run_dir)  # a ValueError naming the file if it is broken
     tables = {name: _read_table(run_dir, name) for name in REQUIRED_COLUMNS}
     logger.debug(
         "loaded run %s: %s",

@@ -1,0 +1,76 @@
+"""Ctrl-C and SIGTERM as exceptions, so a command stops cleanly (docs/reliability.md §10).
+
+:func:`catching` turns SIGINT into ``KeyboardInterrupt`` and SIGTERM into :class:`Terminated`
+while a command runs, so ``finally`` blocks and ``atexit`` handlers (compile jobs, staging
+folders) run as for any exception. CasADi turns an exception raised inside a solve into a
+failed solve, which the planner handles; :func:`check` raises the signal again at the next safe
+point (a step of the episode, a finished run of a sweep).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import signal
+import sys
+from collections.abc import Iterator
+
+#: Signals received while :func:`catching` is active.
+_RECEIVED: list[int] = []
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised like Ctrl-C so cleanup runs."""
+
+
+def _raise(signum: int) -> None:
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _on_signal(signum: int, frame: object) -> None:
+    _RECEIVED.append(signum)
+    _raise(signum)
+
+
+def check() -> None:
+    """Raise again a signal received earlier (one a library may have swallowed)."""
+    if _RECEIVED:
+        _raise(_RECEIVED[0])
+
+
+def received() -> bool:
+    return bool(_RECEIVED)
+
+
+def ignore_more() -> None:
+    """Ignore further SIGINT/SIGTERM: a second Ctrl-C must not break the cleanup."""
+    for sig in _SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def catching() -> Iterator[None]:
+    """Install the handlers; restore the previous ones afterwards unless a signal came."""
+    _RECEIVED.clear()
+    previous = {sig: signal.signal(sig, _on_signal) for sig in _SIGNALS}
+    try:
+        yield
+    finally:
+        if not _RECEIVED:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+def exit_now(code: int) -> None:
+    """Exit with ``code`` once cleanup is done. A Ctrl-C that arrived while an extension module
+    ran Python code is remembered by the interpreter, which would otherwise end the process by
+    SIGINT instead of with ``code``."""
+    codegen = sys.modules.get("resilient_tracking.planning.codegen")
+    if codegen is not None:
+        codegen.stop_all()
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)

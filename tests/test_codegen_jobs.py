@@ -1,0 +1,211 @@
+"""Compile jobs are owned by the process (docs/reliability.md §9): stopped at exit or when the
+process dies, their files under the cache directory, at most one per core, damaged cached
+libraries rebuilt once, and the cache pruned least recently used first."""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import casadi as ca
+import pytest
+
+from resilient_tracking.planning import codegen
+
+pytestmark = pytest.mark.skipif(
+    not codegen.enabled(), reason="needs a C compiler and RTRACK_CODEGEN on"
+)
+
+MARKER = "rtrack-test-fake-compiler"
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("RTRACK_CACHE_DIR", str(folder))
+    yield folder
+    codegen.stop_all()
+
+
+@pytest.fixture
+def slow_compiler(tmp_path, monkeypatch):
+    """A 'compiler' that never finishes and has a child of its own, like gcc's cc1."""
+    script = tmp_path / "slowcc"
+    script.write_text(f"#!/bin/sh\n# {MARKER}\nsleep 300 &\nwait\n")
+    script.chmod(0o755)
+    monkeypatch.setenv("CC", str(script))
+    return script
+
+
+def functions(seed: int = 0) -> dict[str, ca.Function]:
+    x = ca.SX.sym("x", 3)
+    return {"f": ca.Function("f", [x], [ca.sin(x) * (seed + 1) + ca.dot(x, x)])}
+
+
+def processes_in(folder: Path) -> list[int]:
+    """Processes whose command line mentions ``folder``."""
+    found = []
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                cmdline = Path(f"/proc/{name}/cmdline").read_bytes().replace(b"\0", b" ")
+            except OSError:
+                continue
+            if str(folder).encode() in cmdline and int(name) != os.getpid():
+                found.append(int(name))
+    return found
+
+
+def wait_until(condition, seconds: float = 10.0) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.1)
+    return condition()
+
+
+def test_a_compile_job_runs_under_the_cache_directory_and_stop_all_ends_it(
+    cache, slow_compiler, tmp_path
+):
+    job = codegen.compile_functions(functions(), "t")
+    assert job is not None and job.process is not None
+    builds = list(cache.glob("build-*"))
+    assert len(builds) == 1 and (builds[0] / "t.c").exists()
+    assert wait_until(lambda: len(processes_in(builds[0])) >= 2)  # the compiler and its child
+    assert wait_until(lambda: any("sleep" in _cmd(p) for p in _children_of_tree(job)))
+    codegen.stop_all()
+    assert wait_until(lambda: not processes_in(builds[0]) and not builds[0].exists())
+    assert not processes_in(slow_compiler)
+    assert job.failed and not job.ready()
+
+
+def _cmd(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return ""
+
+
+def _children_of_tree(job: codegen.CompiledFunctions) -> list[int]:
+    assert job.process is not None
+    root, tree = job.process.pid, []
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                stat = Path(f"/proc/{name}/stat").read_text()
+            except OSError:
+                continue
+            ppid = int(stat.rsplit(")", 1)[1].split()[1])
+            if ppid == root or ppid in tree:
+                tree.append(int(name))
+    return tree
+
+
+def test_killing_the_process_mid_compile_leaves_no_compiler_and_no_folder(
+    cache, slow_compiler, tmp_path
+):
+    script = textwrap.dedent(
+        """
+        import casadi as ca, time
+        from resilient_tracking.planning import codegen
+        x = ca.SX.sym("x", 2)
+        job = codegen.compile_functions({"f": ca.Function("f", [x], [ca.sin(x)])}, "killed")
+        print("started", flush=True)
+        time.sleep(120)
+        """
+    )
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout is not None and child.stdout.readline().strip() == "started"
+        builds = list(cache.glob(f"build-{child.pid}-*"))
+        assert len(builds) == 1
+        assert wait_until(lambda: len(processes_in(builds[0])) >= 2)
+        child.send_signal(signal.SIGKILL)
+        child.wait(10)
+        assert wait_until(lambda: not processes_in(builds[0]) and not builds[0].exists(), 5)
+        assert not processes_in(slow_compiler)
+    finally:
+        child.kill()
+        child.wait(10)
+
+
+def test_compiles_never_outnumber_the_cores(cache, slow_compiler):
+    cores = os.cpu_count() or 1
+    jobs = [codegen.compile_functions(functions(seed), f"p{seed}") for seed in range(cores + 1)]
+    assert all(job is not None for job in jobs)
+    assert wait_until(lambda: len(processes_in(slow_compiler)) >= cores)
+    time.sleep(1.0)  # the extra job waits for a slot
+    compilers = [p for p in processes_in(slow_compiler) if "sleep" not in _cmd(p)]
+    assert len(compilers) == cores
+    codegen.stop_all()
+    assert wait_until(lambda: not processes_in(slow_compiler))
+    assert not list(cache.glob("build-*"))
+
+
+def test_a_damaged_cached_library_is_rebuilt_once_with_one_warning(cache, caplog):
+    job = codegen.compile_functions(functions(), "dmg")
+    assert job is not None and job.wait()
+    library = job.library
+    assert Path(f"{library}.sha256").read_text().strip() == codegen._sha256(library)
+    library.write_bytes(library.read_bytes()[:200])  # truncated
+    with caplog.at_level(logging.WARNING, logger=codegen.__name__):
+        again = codegen.compile_functions(functions(), "dmg")
+        assert again is not None and again.wait()
+    warnings = [r for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1 and "damaged" in warnings[0].getMessage()
+    assert "\n" not in warnings[0].getMessage()
+    assert float(again.load()["f"]([1, 2, 3])[0]) == pytest.approx(14 + 0.8414709848)
+    # damaged again in the same process: no second rebuild, the virtual machine is used
+    replace_with(library, b"junk")  # a new file: the loaded one stays mapped
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger=codegen.__name__):
+        assert codegen.compile_functions(functions(), "dmg") is None
+    assert len(caplog.records) == 1 and "again" in caplog.records[0].getMessage()
+    assert not library.exists()
+
+
+def replace_with(path: Path, data: bytes) -> None:
+    spare = path.with_suffix(".spare")
+    spare.write_bytes(data)
+    os.replace(spare, path)
+
+
+def test_a_cached_library_without_checksum_is_load_tested(cache):
+    job = codegen.compile_functions(functions(), "old")
+    assert job is not None and job.wait()
+    Path(f"{job.library}.sha256").unlink()
+    assert codegen.damage_of(job.library, job.names) is None
+    assert Path(f"{job.library}.sha256").exists()  # recorded now
+    Path(f"{job.library}.sha256").unlink()
+    replace_with(job.library, b"\x7fELF truncated")
+    assert codegen.damage_of(job.library, job.names) == "does not load"
+
+
+def test_the_cache_is_pruned_least_recently_used_first(tmp_path):
+    now = time.time()
+    for age, name in enumerate(["newest", "middle", "oldest"]):
+        path = tmp_path / f"{name}.so"
+        path.write_bytes(b"x" * 1000)
+        Path(f"{path}.sha256").write_text("0")
+        os.utime(path, (now - 100 * age, now - 100 * age))
+    removed = codegen.prune_cache(tmp_path, keep=tmp_path / "oldest.so", limit=2000)
+    assert removed == 1
+    assert sorted(p.name for p in tmp_path.glob("*.so")) == ["newest.so", "oldest.so"]
+    assert not (tmp_path / "middle.so.sha256").exists()
+
+
+def test_folders_of_dead_jobs_are_removed_and_live_ones_kept(tmp_path):
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (tmp_path / f"build-{dead.pid}-abc").mkdir()
+    (tmp_path / f"build-{os.getpid()}-abc").mkdir()
+    (tmp_path / "mine").mkdir()
+    assert codegen.clean_dead_builds(tmp_path) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"build-{os.getpid()}-abc", "mine"]

@@ -1,0 +1,163 @@
+"""Stored runs you can trust, and stopping cleanly (docs/reliability.md §8, §10): damaged or
+edited stored runs are redone, workers die with their parent, Ctrl-C exits 130 keeping
+finished runs."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import pandas as pd
+
+from resilient_tracking.experiments.catalog import Experiment, Variant, tasks
+from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
+from resilient_tracking.sim.records import TABLES
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = Experiment(
+    "tiny", "sensing-temp", (Variant("vanilla", "vanilla"),), seeds=2, description="short"
+)
+
+
+def tiny_tasks():
+    return [replace(t, scenario=t.scenario.with_overrides(steps=6)) for t in tasks(TINY)]
+
+
+def test_a_truncated_stored_table_is_redone_with_a_warning(tmp_path, caplog):
+    todo = tiny_tasks()
+    run_sweep(todo, tmp_path)
+    team = run_dir(tmp_path, todo[0]) / "team.parquet"
+    before = pd.read_parquet(team)
+    team.write_bytes(team.read_bytes()[:50])
+    with caplog.at_level(logging.WARNING):
+        ran = run_sweep(todo, tmp_path)
+    assert [t.run_id for t in ran] == [todo[0].run_id]
+    assert any(
+        str(team) in r.getMessage() and "running that stored run again" in r.getMessage()
+        for r in caplog.records
+    )
+    pd.testing.assert_frame_equal(pd.read_parquet(team), before)
+
+
+def test_an_edited_stored_manifest_is_redone(tmp_path, caplog):
+    todo = tiny_tasks()
+    run_sweep(todo, tmp_path)
+    manifest = run_dir(tmp_path, todo[1]) / "manifest.json"
+    data = json.loads(manifest.read_text())
+    data["seed"] = 42
+    manifest.write_text(json.dumps(data))
+    assert not is_done(tmp_path, todo[1]) and is_done(tmp_path, todo[0])
+    assert [t.run_id for t in run_sweep(todo, tmp_path)] == [todo[1].run_id]
+    assert json.loads(manifest.read_text())["seed"] == todo[1].seed
+
+
+def rtrack(*argv: str, cwd: Path) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "resilient_tracking.cli", *argv],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own group: signals as a terminal sends them
+    )
+
+
+def children_of(pid: int) -> set[int]:
+    found = set()
+    for name in os.listdir("/proc"):
+        if name.isdigit():
+            try:
+                stat = Path(f"/proc/{name}/stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                found.add(int(name))
+    return found
+
+
+def alive(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def wait_for(condition, seconds: float) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.2)
+    return condition()
+
+
+def stop_group(proc: subprocess.Popen[str]) -> None:
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=30)
+
+
+def test_ctrl_c_during_run_exits_130_without_traceback_or_leftovers(tmp_path):
+    proc = rtrack("run", "sensing-temp", "--steps", "50000", "--out", "out", "-q", cwd=tmp_path)
+    try:
+        assert wait_for(lambda: (tmp_path / ".out.lock").exists(), 60)
+        time.sleep(1.0)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        stop_group(proc)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_and_a_killed_parent_leave_no_worker_and_keep_finished_runs(tmp_path):
+    argv = ("reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q")
+    proc = rtrack(*argv, "--out", "res", cwd=tmp_path)
+    try:
+        assert wait_for(lambda: list((tmp_path / "res").glob("runs/*/*/*/manifest.json")), 120)
+        workers = children_of(proc.pid)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode == 130, err
+        assert "Traceback" not in err
+        assert wait_for(lambda: not any(alive(w) for w in workers), 15)
+    finally:
+        stop_group(proc)
+    stored = list((tmp_path / "res").glob("runs/*/*/*/manifest.json"))
+    assert stored
+    for manifest in stored:
+        for name in TABLES:
+            pd.read_parquet(manifest.parent / f"{name}.parquet")
+
+    # SIGKILL of the parent alone: its workers notice and exit
+    proc = rtrack(*argv, "--out", "res2", cwd=tmp_path)
+    try:
+        assert wait_for(lambda: len(children_of(proc.pid)) >= 2, 60)
+        time.sleep(2.0)  # the workers have started their episodes
+        workers = children_of(proc.pid)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(30)
+        assert wait_for(lambda: not any(alive(w) for w in workers), 15)
+    finally:
+        stop_group(proc)
+
+
+def test_lock_files_of_killed_run_writes_are_removed_by_the_next_sweep(tmp_path):
+    todo = tiny_tasks()
+    stale = run_dir(tmp_path, todo[0]).parent / f".{run_dir(tmp_path, todo[0]).name}.lock"
+    stale.parent.mkdir(parents=True)
+    stale.write_text("12345\n")  # left by a write killed with SIGKILL
+    mine = stale.parent / "notes.lock.txt"
+    mine.write_text("keep")
+    run_sweep(todo, tmp_path)
+    assert not stale.exists() and mine.exists()
+    assert not list((tmp_path / "runs").glob("*/*/.*"))
