@@ -389,6 +389,18 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
             p.add_argument("--mode", choices=("sim", "mocap"), default="sim")
 
 
+def _add_sweep_options(p: argparse.ArgumentParser) -> None:
+    """Where a sweep runs (``--jobs``, ``--dask``) and whether it shows progress."""
+    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="local worker processes")
+    p.add_argument(
+        "--dask",
+        default=None,
+        metavar="ADDRESS",
+        help="run on a Dask scheduler at ADDRESS ('local' starts a LocalCluster)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rtrack", description="Failure-aware multi-robot target tracking."
@@ -432,14 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--seeds", type=int, default=None, help="seeds per cell (default: per experiment)"
     )
     p.add_argument("--quick", action="store_true", help="CI size: fewer seeds and cells")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="local worker processes")
-    p.add_argument(
-        "--dask",
-        default=None,
-        metavar="ADDRESS",
-        help="run on a Dask scheduler at ADDRESS ('local' starts a LocalCluster)",
-    )
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _add_sweep_options(p)
     p.set_defaults(func=cmd_reproduce, argv=[])
 
     p = sub.add_parser(
@@ -465,14 +470,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(repeatable; applied to every scenario)",
     )
     p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
-    p.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="local worker processes")
-    p.add_argument(
-        "--dask",
-        default=None,
-        metavar="ADDRESS",
-        help="run on a Dask scheduler at ADDRESS ('local' starts a LocalCluster)",
-    )
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    _add_sweep_options(p)
     p.set_defaults(func=cmd_compare, argv=None)
 
     p = sub.add_parser(

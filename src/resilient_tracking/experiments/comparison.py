@@ -12,7 +12,6 @@ seed-NNN/``, resumable, a stale run is run again), then summarised in ``OUT/repo
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +26,7 @@ from resilient_tracking.experiments.catalog import Task, Variant, set_path
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
 from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError, parse_scenario
+from resilient_tracking.sim.folders import write_text_atomic
 from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
     BAND_METRICS,
@@ -295,8 +295,4 @@ def write_compare_report(study: Study, tasks: list[Task], out: Path, command: st
         "",
         *sections,
     ]
-    path = out / "report.md"
-    tmp = out / ".report.md.tmp"
-    tmp.write_text("\n".join(lines))
-    os.replace(tmp, path)
-    return path
+    return write_text_atomic(out / "report.md", "\n".join(lines))

@@ -22,6 +22,7 @@ from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task
 from resilient_tracking.experiments.claims import Claim, check
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
+from resilient_tracking.sim.folders import write_text_atomic
 from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
     BAND_METRICS,
@@ -221,9 +222,7 @@ def write_report(
         "",
         *sections,
     ]
-    path = out / "report.md"
-    tmp = out / ".report.md.tmp"
-    tmp.write_text("\n".join(lines))
-    os.replace(tmp, path)
+    path = write_text_atomic(out / "report.md", "\n".join(lines))
     log.info("wrote %s", path)
     return path
+

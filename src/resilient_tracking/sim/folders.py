@@ -267,3 +267,11 @@ def merge_into(staging: Path, out: Path) -> None:
         target.parent.mkdir(parents=True, exist_ok=True)
         os.replace(staging / rel, target)
     shutil.rmtree(staging, ignore_errors=True)
+
+
+def write_text_atomic(path: Path, text: str) -> Path:
+    """Write ``path`` whole or not at all (a hidden temporary file renamed into place)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return path
