@@ -163,8 +163,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+    if _not_a_folder(out):
         return 1
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
@@ -178,6 +177,14 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         if line.startswith("**") and ("claims hold" in line or "targets hold" in line):
             print(line.replace("**", ""))
     return 0
+
+
+def _not_a_folder(out: Path) -> bool:
+    """Whether ``--out`` names something that is not a folder (said to the person)."""
+    if out.exists() and not out.is_dir():
+        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+        return True
+    return False
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -201,8 +208,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+    if _not_a_folder(out):
         return 1
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
