@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.sensor import MeasurementModel, RangeBearingSensor
 from resilient_tracking.scenario import Scenario
 
 
@@ -17,7 +17,7 @@ class TeamConfig:
     u_max: np.ndarray  # (M,)
     lower: np.ndarray  # (2,) workspace corner
     upper: np.ndarray  # (2,)
-    sensor: RangeBearingSensor
+    sensor: MeasurementModel
     target_model: NearlyConstantVelocity
     #: links beyond this distance are lost without any jammer (None: no range limit)
     comm_range: float | None = None

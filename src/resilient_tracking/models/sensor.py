@@ -3,7 +3,9 @@
 :class:`MeasurementModel` is the interface every consumer goes through — the EKF (measurement,
 Jacobian, noise), the league NLP and the SOG program (the information ``Hᵀ R⁻¹ H`` a sensor
 would contribute from a planned position, in CasADi form). A new sensor type is one new
-subclass (plus its scenario schema).
+subclass (plus its scenario schema): the planners take the class from the team's sensor
+(``Structure.sensor_model``) and size their parameters by its ``N_PARAMETERS``
+(tests/test_sensor_model_choice.py builds both programs on a five-parameter sensor).
 
 :class:`RangeBearingSensor` is the paper's sensor (docs/model.md §1, paper eq. 2): range and
 bearing with inverse variance ``R⁻¹(d) = peak · exp(−shape · d)`` per channel, so the noise

@@ -27,7 +27,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from resilient_tracking.models.sensor import PLAN_EPS, RangeBearingSensor
+from resilient_tracking.models.sensor import PLAN_EPS, MeasurementModel, RangeBearingSensor
 
 # ---------------------------------------------------------------------------- named columns
 
@@ -117,7 +117,9 @@ class Structure:
 
     ``route`` adds the route program's cost-to-go (one :class:`RouteRow` per robot);
     ``standoff`` is the distance regularisation (m) of the information model,
-    :data:`~resilient_tracking.models.sensor.PLAN_EPS` in the paper's one-step program.
+    :data:`~resilient_tracking.models.sensor.PLAN_EPS` in the paper's one-step program;
+    ``sensor_model`` is the robots' measurement model, whose information the tracking term
+    uses (a new sensor is a new :class:`MeasurementModel` subclass).
     """
 
     n_robots: int
@@ -126,13 +128,15 @@ class Structure:
     n_comm_zones: int = 0
     route: bool = False
     standoff: float = PLAN_EPS
+    sensor_model: type[MeasurementModel] = RangeBearingSensor
 
     @property
     def label(self) -> str:
         """A short name for compiled code and logs."""
         sizes = f"{self.n_robots}x{self.n_targets}_{self.n_sensing_zones}s{self.n_comm_zones}c"
         route = f"_route{round(self.standoff * 1000)}mm" if self.route else ""
-        return f"league_{sizes}{route}"
+        sensor = "" if self.sensor_model is RangeBearingSensor else f"_{self.sensor_model.__name__}"
+        return f"league_{sizes}{route}{sensor}"
 
     @property
     def n_vars(self) -> int:
@@ -170,16 +174,17 @@ class Slots:
 
 def parameter(
     per: str,
-    size: int,
+    size: int | Callable[[Structure], int],
     symbol: str,
     columns: Callable[[Any], Any] | None = None,
     when: str = "",
 ) -> dict[str, Any]:
     """Field metadata of a :class:`ProblemInputs` field that is an NLP parameter: ``size``
-    numbers ``per`` robot, target, sensing_zone, comm_zone or problem, as CasADi symbol
-    ``symbol`` of shape ``(size, count)``. ``columns`` turns the numeric value into
-    ``(count, size)`` (default: the value itself, reshaped). ``when`` names a
-    :class:`Structure` flag: the parameter exists only in problems that have it set."""
+    numbers (or a function of the :class:`Structure` giving it) ``per`` robot, target,
+    sensing_zone, comm_zone or problem, as CasADi symbol ``symbol`` of shape
+    ``(size, count)``. ``columns`` turns the numeric value into ``(count, size)`` (default:
+    the value itself, reshaped). ``when`` names a :class:`Structure` flag: the parameter
+    exists only in problems that have it set."""
     return {"parameter": (per, size, symbol, columns, when)}
 
 
@@ -202,9 +207,9 @@ class ProblemInputs:
     prior_info: np.ndarray = field(metadata=parameter("target", 3, "prior", _information_entries))
     #: (4,) w1..w4, entries named by :class:`Weight`
     weights: np.ndarray = field(metadata=parameter("problem", Weight.COUNT, "w"))
-    #: the sensor model's parameters (``RangeBearingSensor.parameters``)
+    #: the sensor model's parameters (``MeasurementModel.parameters``)
     sensor: np.ndarray = field(
-        metadata=parameter("problem", RangeBearingSensor.N_PARAMETERS, "sensor")
+        metadata=parameter("problem", lambda s: s.sensor_model.N_PARAMETERS, "sensor")
     )
     dt: float = field(metadata=parameter("problem", 1, "dt"))
     #: (n, 2) velocity bounds
@@ -222,6 +227,8 @@ class ProblemInputs:
     )
     #: distance regularisation (m) of the information model (:attr:`Structure.standoff`)
     standoff: float = PLAN_EPS
+    #: the robots' measurement model (:attr:`Structure.sensor_model`)
+    sensor_model: type[MeasurementModel] = RangeBearingSensor
 
     def structure(self) -> Structure:
         """The sizes and program of the problem these inputs are for."""
@@ -232,6 +239,7 @@ class ProblemInputs:
             n_comm_zones=len(self.comm_zones),
             route=self.route is not None,
             standoff=self.standoff,
+            sensor_model=self.sensor_model,
         )
 
 
@@ -241,7 +249,7 @@ class Parameter:
 
     name: str  # the ProblemInputs field
     per: str
-    size: int
+    size: int | Callable[[Structure], int]
     symbol: str
     columns: Callable[[Any], Any] | None
     #: the Structure flag the parameter depends on ("": always there)
@@ -249,6 +257,9 @@ class Parameter:
 
     def present(self, structure: Structure) -> bool:
         return not self.when or bool(getattr(structure, self.when))
+
+    def size_in(self, structure: Structure) -> int:
+        return self.size(structure) if callable(self.size) else self.size
 
 
 #: The NLP's parameters in packing order: the :func:`parameter` fields of ProblemInputs.
@@ -272,7 +283,7 @@ class ParameterLayout:
         """CasADi SX symbols by field name (and ``ssel``, ``csel``, ``msel`` with slots)."""
         s = self.structure
         out = {
-            block.name: ca.SX.sym(block.symbol, block.size, s.count(block.per))
+            block.name: ca.SX.sym(block.symbol, block.size_in(s), s.count(block.per))
             for block in PARAMETERS
             if block.present(s)
         }
@@ -295,10 +306,11 @@ class ParameterLayout:
                 continue
             value = getattr(q, block.name)
             if value is None:  # an optional input left out: zeros
-                value = np.zeros((structure.count(block.per), block.size))
+                value = np.zeros((structure.count(block.per), block.size_in(structure)))
             elif block.columns is not None:
                 value = block.columns(value)
-            parts.append(np.asarray(value, dtype=float).reshape(-1, block.size).ravel())
+            size = block.size_in(structure)
+            parts.append(np.asarray(value, dtype=float).reshape(-1, size).ravel())
         return np.concatenate(parts)
 
 

@@ -108,7 +108,7 @@ class LeagueNLP:
         self.variables = VariableLayout(s.n_robots, n_nu, n_xi)
         self._declare_variables()
         self._declare_parameters()
-        self.pieces = piece_functions(standoff=s.standoff)
+        self.pieces = piece_functions(s.sensor_model, s.standoff)
         #: planned positions x_i⁺ = x_i + u_i dt
         self.xps = [self.xp[:, i] for i in range(s.n_robots)]
         track = self._tracking_term()

@@ -32,7 +32,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.sensor import MeasurementModel, RangeBearingSensor
 from resilient_tracking.planning.pieces import trace_of_inverse
 from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
 from resilient_tracking.planning.solver_options import IPOPT_OPTIONS
@@ -100,26 +100,35 @@ def likelihood_function(n_zones: int) -> ca.Function:
     return ca.Function("sog_likelihood", [x, zones, scale], [phi])
 
 
-def _sog_entries(xp: Any, weight: Any, target: Any, prior: Any, sensor: Any) -> Any:
+def _sog_entries(
+    xp: Any,
+    weight: Any,
+    target: Any,
+    prior: Any,
+    sensor: Any,
+    model: type[MeasurementModel] = RangeBearingSensor,
+) -> Any:
     """Entries (xx, xy, yy) of ``P⁻⁻¹ + Σ_i weight_i Hᵀ R⁻¹ H`` for one target."""
     a, b, c = prior[0], prior[1], prior[2]
     for i in range(xp.shape[1]):
-        ixx, ixy, iyy = RangeBearingSensor.information_casadi(xp[:, i], target, sensor)
+        ixx, ixy, iyy = model.information_casadi(xp[:, i], target, sensor)
         a = a + weight[i] * ixx
         b = b + weight[i] * ixy
         c = c + weight[i] * iyy
     return a, b, c
 
 
-def information_function(n_robots: int, n_targets: int) -> ca.Function:
+def information_function(
+    n_robots: int, n_targets: int, model: type[MeasurementModel] = RangeBearingSensor
+) -> ca.Function:
     """``(x⁺ (2,n), weight (n,), targets (2,N), sensor (4,)) → O (3,N)``: the SOG entries
     ``Σ_i weight_i Hᵀ R⁻¹ H`` exactly as the NLP builds them (``weight = s (1 − φᵒ)``)."""
     xp = ca.MX.sym("x", 2, n_robots)
     weight = ca.MX.sym("w", n_robots)
     targets = ca.MX.sym("targets", 2, n_targets)
-    sensor = ca.MX.sym("sensor", RangeBearingSensor.N_PARAMETERS)
+    sensor = ca.MX.sym("sensor", model.N_PARAMETERS)
     cols = [
-        ca.vertcat(*_sog_entries(xp, weight, targets[:, j], ca.DM.zeros(3), sensor))
+        ca.vertcat(*_sog_entries(xp, weight, targets[:, j], ca.DM.zeros(3), sensor, model))
         for j in range(n_targets)
     ]
     return ca.Function("sog_information", [xp, weight, targets, sensor], [ca.horzcat(*cols)])
@@ -132,6 +141,8 @@ class SogStructure:
     n_robots: int
     n_targets: int
     n_zones: int = 0
+    #: the robots' measurement model
+    sensor_model: type[MeasurementModel] = RangeBearingSensor
 
     @property
     def n_risk_slacks(self) -> int:
@@ -150,7 +161,7 @@ class SogInputs:
     sensing: np.ndarray  # (n,) 1.0 if the robot's sensor works
     targets: np.ndarray  # (N, 2) predicted target positions at t+1
     prior_info: np.ndarray  # (N, 2, 2) predicted position-block information P⁻⁻¹
-    sensor: np.ndarray  # the sensor model's parameters (RangeBearingSensor.parameters)
+    sensor: np.ndarray  # the sensor model's parameters (MeasurementModel.parameters)
     dt: float
     u_lower: np.ndarray  # (n, 2)
     u_upper: np.ndarray  # (n, 2)
@@ -162,6 +173,7 @@ class SogInputs:
     w_risk: float
     risk_scale: float  # c = κ f_act T of the safety requirement
     survival_scale: float  # c = κ f_act T of the SOG's survival weights
+    sensor_model: type[MeasurementModel] = RangeBearingSensor
 
 
 class SogProblem:
@@ -177,7 +189,7 @@ class SogProblem:
         sense = ca.MX.sym("s", n)
         targets = ca.MX.sym("targets", 2, big_n)
         prior = ca.MX.sym("prior", 3, big_n)
-        sensor = ca.MX.sym("sensor", RangeBearingSensor.N_PARAMETERS)
+        sensor = ca.MX.sym("sensor", s.sensor_model.N_PARAMETERS)
         dt = ca.MX.sym("dt")
         zones = ca.MX.sym("zones", ZONE_COLUMNS, nz)
         k = ca.MX.sym("scalars", SCALARS)
@@ -191,7 +203,9 @@ class SogProblem:
         )
         g = []
         for j in range(big_n):
-            a, b, c = _sog_entries(xp, survive, targets[:, j], prior[:, j], sensor)
+            a, b, c = _sog_entries(
+                xp, survive, targets[:, j], prior[:, j], sensor, s.sensor_model
+            )
             trace = trace_of_inverse(a, b, c)
             g.append(rho1 + d1[j] - trace)
         if nz:
@@ -281,5 +295,7 @@ class SogPlanner(SolverLadder):
         return SogProblem(structure)
 
     def plan_sog(self, members: tuple[int, ...], q: SogInputs) -> PlanResult:
-        structure = SogStructure(len(q.positions), len(q.targets), len(q.zones))
+        structure = SogStructure(
+            len(q.positions), len(q.targets), len(q.zones), sensor_model=q.sensor_model
+        )
         return self.plan(structure, members, q)

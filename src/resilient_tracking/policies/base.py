@@ -63,6 +63,7 @@ class Policy(ABC):
         sensing: np.ndarray,
         sensing_zones: np.ndarray | None = None,
         comm_zones: np.ndarray | None = None,
+        with_route: bool = True,
     ) -> ProblemInputs:
         """Numeric inputs of a league problem: predicted targets, bounds, zones, and with the
         route program each robot's route row."""
@@ -82,9 +83,10 @@ class Policy(ABC):
             u_upper=upper,
             sensing_zones=sensing_zones,
             comm_zones=comm_zones,
+            sensor_model=type(self.config.sensor),
         )
         route = self.planner.route
-        if route is None:
+        if route is None or not with_route:  # the one-step program, or a program of its own
             return q
         positions = obs.positions[robots]
         discs = keep_out_discs(sensing_zones, comm_zones, _mean_spacing(positions))

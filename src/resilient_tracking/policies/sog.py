@@ -82,7 +82,9 @@ class SogPolicy(Policy):
         self.last_weights = (w_track, w_risk)
         for k, robots in enumerate(belief.leagues):
             sensing = obs.sensing_ok[robots].astype(float)
-            base = self.tracking_inputs(belief, obs, robots, k, np.zeros(Weight.COUNT), sensing)
+            base = self.tracking_inputs(
+                belief, obs, robots, k, np.zeros(Weight.COUNT), sensing, with_route=False
+            )
             q = SogInputs(
                 positions=base.positions,
                 sensing=base.sensing,
@@ -100,6 +102,7 @@ class SogPolicy(Policy):
                 w_risk=w_risk,
                 risk_scale=self.risk_scale(),
                 survival_scale=self.survival_scale(),
+                sensor_model=base.sensor_model,
             )
             result = self.sog_planner.plan_sog(tuple(robots), q)
             decision.plans.append(result)
