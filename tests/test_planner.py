@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from dataclasses import replace
 
 import numpy as np
@@ -12,7 +13,7 @@ from resilient_tracking.planning import codegen
 from resilient_tracking.planning.layout import ProblemInputs
 from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.nlp import LeagueNLP
-from resilient_tracking.planning.planner import LeaguePlanner
+from resilient_tracking.planning.planner import BUILDING, LeaguePlanner
 from resilient_tracking.scenario import ScenarioError, parse_scenario
 
 
@@ -288,3 +289,57 @@ def test_a_malformed_solution_is_a_failed_attempt():
     result = planner.plan(structure_of(q), (0, 1, 2), q)
     assert result.fallback == "safe"
     assert [status for _, status in result.attempts] == ["exception: ValueError"] * 2
+
+
+class _GatedPlanner(LeaguePlanner):
+    """Builds only once ``gate`` is set, so a test controls when a background build ends."""
+
+    def __init__(self, **kwargs):
+        super().__init__(background_builds=True, **kwargs)
+        self.gate = threading.Event()
+
+    def build(self, structure):
+        assert self.gate.wait(60), "the test never opened the gate"
+        return super().build(structure)
+
+
+def _finish(planner: LeaguePlanner, q: ProblemInputs) -> None:
+    planner.gate.set()
+    planner._building[structure_of(q)].result(timeout=120)
+
+
+def test_a_background_build_answers_with_the_safe_rung_until_ready_then_plans_as_usual():
+    q = inputs(seed=5)
+    planner = _GatedPlanner()
+    first = planner.plan(structure_of(q), (0, 1, 2), q)  # returns although the build is held
+    assert not first.success and first.fallback == "safe"
+    assert first.status == BUILDING and first.attempts == (("build", BUILDING),)
+    np.testing.assert_array_equal(first.controls, np.zeros((3, 2)))
+    assert planner.plan(structure_of(q), (0, 1, 2), q).status == BUILDING
+    _finish(planner, q)
+    blocking = LeaguePlanner()
+    for _ in range(3):  # once built, the same plans as a planner that waited for its build
+        ours, theirs = (p.plan(structure_of(q), (0, 1, 2), q) for p in (planner, blocking))
+        assert ours.success and ours.rung == "sqp"
+        np.testing.assert_array_equal(ours.controls, theirs.controls)
+        q.positions = q.positions + ours.controls * q.dt
+    planner.close()
+
+
+def test_a_failed_background_build_gives_the_safe_action_and_is_retried():
+    class Broken(_GatedPlanner):
+        def build(self, structure):
+            assert self.gate.wait(60)
+            raise MemoryError("out of memory")
+
+    q = inputs()
+    planner = Broken()
+    assert planner.plan(structure_of(q), (0, 1, 2), q).status == BUILDING
+    failed = planner._building[structure_of(q)]
+    planner.gate.set()
+    with pytest.raises(MemoryError):
+        failed.result(timeout=60)
+    result = planner.plan(structure_of(q), (0, 1, 2), q)
+    assert not result.success and result.attempts == (("build", "exception: MemoryError"),)
+    assert planner.plan(structure_of(q), (0, 1, 2), q).status == BUILDING  # built again
+    planner.close()

@@ -81,6 +81,14 @@ class LeagueProblem:
         """Whether ``method`` runs on compiled code."""
         return self._call(method or self.default_method).compiled
 
+    def prepare(self, methods: tuple[str, ...] = METHODS) -> None:
+        """Build the symbolic problems and solvers of ``methods`` now rather than at the first
+        solve (the SQP's reduced problem too, when it has one)."""
+        if "sqp" in methods and self.slots:
+            methods = (*methods, "sqp_slots")
+        for method in methods:
+            self._call(method)
+
     def wait_for_compiler(self, methods: tuple[str, ...] = METHODS) -> None:
         """Block until the compiled code of ``methods`` is ready, and use it from now on.
 

@@ -9,6 +9,7 @@ least recently used problems beyond ``NLP_BUDGET`` instructions (≈ 160 MB) are
 from __future__ import annotations
 
 import logging
+import threading
 
 from resilient_tracking.planning.cache import LruCache
 from resilient_tracking.planning.layout import Slots, Structure
@@ -18,6 +19,8 @@ from resilient_tracking.planning.solver_options import SQP_MARGIN
 log = logging.getLogger(__name__)
 
 NLP_BUDGET = 4_000_000
+#: guards the cache's bookkeeping, never a build (a planner may build in a worker thread)
+_LOCK = threading.Lock()
 _NLPS: LruCache[tuple[Structure, float, Slots | None], LeagueNLP] = LruCache(
     NLP_BUDGET, weigh=lambda nlp: nlp.n_instructions
 )
@@ -45,16 +48,21 @@ def shared_nlp(
 ) -> LeagueNLP:
     """The process-wide :class:`LeagueNLP` of ``structure`` (built on first use)."""
 
-    def build() -> LeagueNLP:
-        log.debug("building league problem %s (slots %s)", structure, slots)
-        return LeagueNLP(structure, margin, slots)
-
-    return _NLPS.get((structure, margin, slots), build)
+    key = (structure, margin, slots)
+    with _LOCK:
+        if key in _NLPS:
+            return _NLPS.get(key, lambda: LeagueNLP(structure, margin, slots))
+    log.debug("building league problem %s (slots %s)", structure, slots)
+    built = LeagueNLP(structure, margin, slots)  # two threads may both build it: wasted, not wrong
+    with _LOCK:
+        return _NLPS.get(key, lambda: built)
 
 
 def wait_for_compilers() -> None:
     """Block until every compile job started in this process is done (for warm-ups)."""
-    for nlp in _NLPS.values():
+    with _LOCK:
+        nlps = _NLPS.values()
+    for nlp in nlps:
         for job in list(nlp.jobs.values()):
             if job is not None:
                 job.wait()

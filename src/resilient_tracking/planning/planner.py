@@ -11,14 +11,22 @@ The solver ladder per solve (``solver="ladder"``, the default):
 
 With ``solver="ipopt"`` the ladder starts at rung 2. Each fallback is reported to the caller
 through :attr:`PlanResult.fallback`; the policy turns it into a ``solver_fallback`` event.
+
+Building the problem of a new league structure takes about a second at 20 robots. By default
+the solve waits for it (so results do not depend on the clock). A robot loop that must answer
+every period sets ``background_builds``: a new structure is then built in a worker thread
+while the ladder answers with its last rung (``status`` :data:`BUILDING`), and its solvers are
+used from the first solve after the build finished.
 """
 
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,6 +43,9 @@ log = logging.getLogger(__name__)
 
 #: Solver choices of :class:`LeaguePlanner`.
 SOLVERS = ("ladder", "ipopt")
+
+#: The status of a plan made while its structure is still being built in the background.
+BUILDING = "structure building in the background"
 
 
 @dataclass(frozen=True)
@@ -62,6 +73,8 @@ class SolverLadder:
     """The never-crashing ladder over any problem with ``solve(q, warm, method)`` and
     ``split(x)``: one problem per structure (built by :meth:`build`), a warm start per league
     membership. ``solver`` is ``"ladder"`` (SQP first, then IPOPT) or ``"ipopt"`` (IPOPT only).
+    With ``background_builds`` a structure not yet built is built (:meth:`prepare`) in a worker
+    thread, and plans answer :data:`BUILDING` from the last rung until it is ready.
     """
 
     #: the problem cache's budget in units of :meth:`weigh` (here: a number of problems)
@@ -69,11 +82,20 @@ class SolverLadder:
     #: how many league memberships keep their last solution as a warm start
     WARM_STARTS = 256
 
-    def __init__(self, solver: str = "ladder", fault_hook: FaultHook | None = None):
+    def __init__(
+        self,
+        solver: str = "ladder",
+        fault_hook: FaultHook | None = None,
+        background_builds: bool = False,
+    ):
         if solver not in SOLVERS:
             raise ValueError(f"solver: expected one of {SOLVERS}, got {solver!r}")
         self.solver = solver
         self.fault_hook = fault_hook
+        self.background_builds = background_builds
+        self._builder: ThreadPoolExecutor | None = None
+        self._building: dict[Any, Future[Any]] = {}
+        self._lock = threading.Lock()
         # bounded, so that a long mission meeting ever new structures keeps a flat memory
         self._problems: LruCache[Any, Any] = LruCache(
             self.PROBLEM_BUDGET, weigh=self.weigh, on_evict=self._forget
@@ -82,6 +104,36 @@ class SolverLadder:
 
     def build(self, structure: Any) -> Any:
         raise NotImplementedError
+
+    def prepare(self, structure: Any) -> Any:
+        """The problem of ``structure`` with everything its solves will need already built
+        (what a background build does; by default just :meth:`build`)."""
+        return self.build(structure)
+
+    def ready_problem(self, structure: Any) -> Any | None:
+        """The problem of ``structure``; None while it is being built in the background."""
+        if not self.background_builds or structure in self._problems:
+            return self.problem(structure)
+        with self._lock:
+            future = self._building.get(structure)
+            if future is None:
+                if self._builder is None:
+                    self._builder = ThreadPoolExecutor(1, thread_name_prefix="rtrack-build")
+                log.info("building the problem of %s in the background", structure)
+                self._building[structure] = self._builder.submit(self.prepare, structure)
+                return None
+            if not future.done():
+                return None
+            del self._building[structure]
+        built = future.result()  # a failed build raises here, where plan() handles it
+        return self._problems.get(structure, lambda: built)
+
+    def close(self) -> None:
+        """Stop background building (a build under way finishes in its thread; none starts)."""
+        if self._builder is not None:
+            self._builder.shutdown(wait=False, cancel_futures=True)
+            self._builder = None
+        self._building.clear()
 
     def weigh(self, problem: Any) -> float:
         """A problem's share of :attr:`PROBLEM_BUDGET`."""
@@ -119,12 +171,15 @@ class SolverLadder:
         status, iterations = "not solved", 0
         attempts: list[tuple[str, str]] = []
         try:
-            problem = self.problem(structure)
+            problem = self.ready_problem(structure)
         except Exception as err:  # building a problem must not crash an episode either
             log.warning("building the league problem raised %s: %s", type(err).__name__, err)
             status = f"exception: {type(err).__name__}"
             attempts.append(("build", status))
             return self._safe(structure, members, q, status, iterations, attempts, start)
+        if problem is None:
+            attempts.append(("build", BUILDING))
+            return self._safe(structure, members, q, BUILDING, iterations, attempts, start)
         for k, (rung, method, use_warm) in enumerate(self.rungs(warm)):
             try:
                 solution, stats = problem.solve(q, warm if use_warm else None, method)
@@ -195,8 +250,9 @@ class LeaguePlanner(SolverLadder):
         fault_hook: FaultHook | None = None,
         options: ProblemOptions | dict[str, Any] | None = None,
         route: RouteSpec | None = None,
+        background_builds: bool = False,
     ):
-        super().__init__(solver, fault_hook)
+        super().__init__(solver, fault_hook, background_builds)
         #: checked here, before any episode runs: an unknown key is an error naming it
         self.options = ProblemOptions.of(options)
         self.route = route
@@ -212,6 +268,11 @@ class LeaguePlanner(SolverLadder):
 
     def build(self, structure: Structure) -> LeagueProblem:
         return LeagueProblem(structure, "ipopt", self.options)
+
+    def prepare(self, structure: Structure) -> LeagueProblem:
+        problem = self.build(structure)
+        problem.prepare(("sqp", "ipopt") if self.solver == "ladder" else ("ipopt",))
+        return problem
 
     def weigh(self, problem: LeagueProblem) -> float:
         return float(problem.n_instructions)

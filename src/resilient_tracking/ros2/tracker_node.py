@@ -89,6 +89,11 @@ class TrackerNode:
         self.dt = scenario.dt
         initial = np.array([TargetTruth(t).state for t in scenario.targets])
         self.team = build_team(scenario, policy, seed, initial)
+        #: the policy's planner; running free, it builds new league structures in the
+        #: background (the robots take the safe action meanwhile) rather than miss periods
+        self.planner = getattr(self.team.policy, "planner", None)
+        if self.planner is not None and not settings.lockstep:
+            self.planner.background_builds = True
         # the zones' truth is recorded for plots only, as in `rtrack run`; the team never sees it
         self.recorder = EpisodeRecorder(
             len(scenario.robots), len(scenario.targets), make_zones(scenario, seed), scenario.steps
@@ -151,6 +156,8 @@ class TrackerNode:
                 self.hold(f"no observation for {silent:.1f} s (is the world node running?)")
                 last_hold = now
         wall = time.perf_counter() - started
+        if self.planner is not None:
+            self.planner.close()
         manifest = episode_manifest(self.scenario, self.seed, self.policy, self.steps_done, wall)
         manifest["transport"] = {
             "kind": "ros2-dds",
