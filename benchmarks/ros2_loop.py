@@ -6,7 +6,9 @@
 For each size a world node runs free at wall-clock rate in its own process (as ``rtrack world``
 does) and a tracker node in this one, both on DDS over loopback in a private domain. Measured
 per tick in the tracker: taking the messages off DDS, checking them, ``Team.step``, clipping,
-publishing the setpoints and the belief markers, recording. The margin is the period ``dt``
+publishing the setpoints and the belief markers, recording. Running free, the tracker builds
+league structures it meets for the first time in the background; the ticks it answered with
+the safe action meanwhile are counted. The margin is the period ``dt``
 divided by the 99th percentile of that work; the target is at least 5x at 10x10.
 """
 
@@ -19,6 +21,7 @@ import time
 from typing import Any
 
 from benchmarks.common import SCENARIOS, machine, save, summary_ms, table
+from resilient_tracking.planning.planner import BUILDING
 from resilient_tracking.ros2.topics import NodeSettings
 from resilient_tracking.ros2.tracker_node import TrackerNode
 from resilient_tracking.ros2.transport import loopback_config
@@ -48,7 +51,7 @@ def _world(scenario: Scenario, domain: int) -> None:
 def measure(scenario: Scenario, domain: int) -> dict[str, Any]:
     os.environ["CYCLONEDDS_URI"] = loopback_config()
     settings = NodeSettings.for_scenario(
-        scenario, domain_id=domain, observation_timeout=2.0, give_up=2.0
+        scenario, domain_id=domain, observation_timeout=2.0, give_up=20.0
     )
     node = TrackerNode(scenario, SEED, scenario.policy.name, settings)
     work_ms: list[float] = []
@@ -78,11 +81,17 @@ def measure(scenario: Scenario, domain: int) -> dict[str, Any]:
             world.join()
     stats = summary_ms(work_ms[1:])  # the first tick builds the solver
     period_ms = 1e3 * scenario.dt
+    events = result["events"]
+    building = events[
+        (events["event"] == "solver_fallback") & events["detail"].str.contains(BUILDING)
+    ]
     return {
         "robots": len(scenario.robots),
         "targets": len(scenario.targets),
         "ticks": len(result["team"]),
         "holds": node.holds,
+        # ticks answered with the safe action while a new league structure was being built
+        "building_ticks": int(building["step"].nunique()),
         "wall_s": wall,
         "work_ms": stats,
         "first_tick_ms": work_ms[0] if work_ms else float("nan"),
@@ -104,6 +113,7 @@ def main(argv: list[str] | None = None) -> None:
             label,
             r["ticks"],
             r["holds"],
+            r["building_ticks"],
             r["work_ms"]["median"],
             r["work_ms"]["p99"],
             r["work_ms"]["max"],
@@ -113,8 +123,8 @@ def main(argv: list[str] | None = None) -> None:
         ]
         for label, r in results.items()
     ]
-    header = ["team", "ticks", "holds", "median ms", "p99 ms", "max ms", "period ms"]
-    print(table(rows, [*header, "margin (median)", "margin (p99)"]))
+    header = ["team", "ticks", "holds", "ticks building", "median ms", "p99 ms", "max ms"]
+    print(table(rows, [*header, "period ms", "margin (median)", "margin (p99)"]))
     path = save("ros2_loop", {"machine": machine(), "steps": steps, "results": results})
     print(f"saved {path}")
 
