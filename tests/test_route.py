@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from resilient_tracking.planning.goals import assign, keep_out_discs, route_rows
+from resilient_tracking.planning.layout import RouteRow
 from resilient_tracking.planning.route import SIDES, RouteMap, segment_distances
 from resilient_tracking.scenario import RouteSpec
 
@@ -132,3 +133,28 @@ def test_route_rows_pull_only_robots_that_sense() -> None:
     assert rows[0, 3] == pytest.approx(2 * 0.05 * 0.8 / 0.1)
     # the first robot heads for a corner beside the disc, with route left beyond it
     assert abs(rows[0, 1]) > 0.5 and rows[0, 2] > 0
+
+
+def test_a_robot_wedged_where_two_discs_overlap_is_routed_around_them() -> None:
+    """Routed from inside both discs, neither would block it and its waypoint would be the
+    goal straight through their overlap, where the chance constraints hold it for good."""
+    discs = np.array([[0.0, 0.8, 1.0], [0.0, -0.8, 1.0]])  # overlapping across y = 0
+    routes = RouteMap(discs, *BOX)
+    robot = np.array([[-0.3, 0.0]])  # in the notch, inside both
+    assert routes._inside(robot).all()
+    rows = route_rows(
+        robot,
+        can_sense=np.ones(1),
+        targets=np.array([[3.0, 0.0]]),
+        velocities=np.zeros((1, 2)),
+        routes=routes,
+        u_max=np.ones(1),
+        w_effort=0.05,
+        dt=0.1,
+        params=RouteSpec(speed=0.8, reach=0.7, lookahead=0.0),
+    )
+    waypoint = rows[0, RouteRow.WAYPOINT]
+    assert not np.allclose(waypoint, [3.0, 0.0])  # not straight through the overlap
+    assert np.min(np.linalg.norm(routes.corners - waypoint, axis=1)) < 1e-12  # a corner
+    route = np.linalg.norm(waypoint - robot[0]) + rows[0, RouteRow.OFFSET] + 0.7  # + reach
+    assert route > np.linalg.norm(robot[0] - [3.0, 0.0]) + 1.0  # around the discs, not through

@@ -86,7 +86,10 @@ def route_rows(
     sensing = np.flatnonzero(np.asarray(can_sense) > 0)
     if not len(sensing) or not len(targets):
         return rows
-    starts = positions[sensing]
+    # a robot inside a keep-out disc (a zone just learned, or wedged where two discs overlap)
+    # is routed from the nearest point outside: routing from inside would let the disc that
+    # holds it block nothing, and send it straight through discs it cannot cross
+    starts = routes.outside(positions[sensing])
     lengths = routes.lengths(starts, routes.outside(targets))
     chosen = assign(lengths, params.spread)
     speed = params.speed * np.asarray(u_max, dtype=float)[sensing]
