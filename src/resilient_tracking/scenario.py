@@ -772,6 +772,9 @@ class PlannerSpec(Strict):
 
 
 class Scenario(Strict):
+    """A whole scenario file: team, targets, zones, policy and planner (docs/scenario-format.md).
+    """
+
     name: str = Field("scenario", description="Label used in output folders and plots.")
     description: str = Field("", description="Free text.")
     seed: int = Field(
