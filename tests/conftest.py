@@ -23,3 +23,58 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 @pytest.fixture
 def scenario_dir() -> Path:
     return SCENARIOS
+
+
+@pytest.fixture(scope="session")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The ``bin`` folder of a fresh virtualenv holding only the built wheel (built once per
+    session; tests marked ``wheel`` use it)."""
+    import site
+    import sys
+    import zipfile
+
+    from helpers import run_checked
+
+    root = Path(__file__).resolve().parents[1]
+    base = tmp_path_factory.mktemp("wheel")
+    dist = base / "dist"
+    run_checked(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            str(dist),
+            str(root),
+        ],
+        cwd=base,
+    )
+    (wheel,) = dist.glob("resilient_tracking-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        names = z.namelist()
+    assert "resilient_tracking/scenarios/sensing-temp.yaml" in names
+    venv = base / "venv"
+    run_checked([sys.executable, "-m", "venv", str(venv)], cwd=base)
+    bin_dir = venv / "bin"
+    # Dependencies from this environment, but never this checkout's editable install (.pth
+    # files are not processed in a folder added this way).
+    (site_packages,) = (venv / "lib").glob("python*/site-packages")
+    (site_packages / "_deps.pth").write_text("\n".join(site.getsitepackages()) + "\n")
+    run_checked(
+        [
+            str(bin_dir / "python"),
+            "-m",
+            "pip",
+            "install",
+            "-q",
+            "--no-deps",
+            "--no-index",
+            str(wheel),
+        ],
+        cwd=base,
+    )
+    return bin_dir

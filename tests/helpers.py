@@ -85,3 +85,12 @@ def check_derivatives(nlp: LeagueNLP, reference: ca.Function, xv, pv, lg) -> np.
     np.testing.assert_allclose(f["jac_g"](xv, pv)[1].full(), jac, atol=1e-9)
     np.testing.assert_allclose(f["hess_exact"](xv, pv, 0.7, lg).full(), hess, atol=1e-8)
     return hess
+
+
+def run_checked(cmd: list[str], cwd, env: dict[str, str] | None = None, timeout: float = 600):
+    """Run a command; fail the test with its output if it exits non-zero."""
+    import subprocess
+
+    done = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    assert done.returncode == 0, f"{cmd} failed:\n{done.stdout}\n{done.stderr}"
+    return done

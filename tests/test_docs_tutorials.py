@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
-TUTORIALS = ["team-api.md"]
+TUTORIALS = ["team-api.md", "own-policy.md"]
 
 
 @pytest.mark.parametrize("page", TUTORIALS)
@@ -23,3 +23,8 @@ def test_tutorial_runs(page, capsys):
         assert "attack sensing zone0 permanent" in printed
         assert printed.count("zone_learned zone0 sensing via broadcast") == 2
         assert "TeamObservation.measurements: the team tracks 3 targets, got 2" in printed
+    if page == "own-policy.md":
+        assert "check_policy(greedy): ok over 10 ticks" in printed
+        assert "[all well, no zone knowledge] controls of robots [0] are not finite" in printed
+        assert "Traceback" not in printed
+        assert "'greedy'" in printed

@@ -66,9 +66,27 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return status
 
 
+def _policy_problem(name: str | None) -> str | None:
+    """Why ``--policy name`` cannot be used (``None``: it can, or no name was given)."""
+    if name is None:
+        return None
+    from resilient_tracking.policies import POLICIES
+    from resilient_tracking.registry import UnknownName
+
+    try:
+        POLICIES.get(name)
+    except UnknownName as err:
+        return str(err)
+    return None
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     scenario = _load(args.scenario)
     if scenario is None:
+        return 1
+    why = _policy_problem(args.policy)
+    if why is not None:
+        print(f"error: --policy: {why}", file=sys.stderr)
         return 1
     if args.steps is not None:
         if args.steps < 1:
@@ -312,6 +330,10 @@ def cmd_node(args: argparse.Namespace) -> int:
     from resilient_tracking.ros2.tracker_node import TrackerNode
     from resilient_tracking.sim.records import is_run_folder, write_run
 
+    why = _policy_problem(args.policy)
+    if why is not None:
+        print(f"error: --policy: {why}", file=sys.stderr)
+        return 1
     policy = args.policy or scenario.policy.name
     out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}-ros2")
     if out.exists() and not is_run_folder(out):
@@ -389,7 +411,7 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
         p.set_defaults(func=func)
         if verb == "node":
             p.add_argument("--out", default=None, help="run folder")
-            p.add_argument("--policy", choices=POLICY_NAMES, default=None)
+            p.add_argument("--policy", default=None, help="a policy name (default: the file's)")
             p.add_argument("--bag", default=None, metavar="FILE", help="also write a ROS 2 bag")
         else:
             p.add_argument("--mode", choices=("sim", "mocap"), default="sim")
@@ -425,9 +447,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="run folder (default: runs/NAME-POLICY-seedS)")
     p.add_argument(
         "--policy",
-        choices=POLICY_NAMES,
         default=None,
-        help="vanilla, failure_aware (the paper) or sog (Mayya et al. baseline, reconstructed)",
+        help="failure_aware (the paper), vanilla, sog (Mayya et al. baseline, reconstructed), a "
+        "name an installed package registers, or package.module:Class (default: the file's)",
     )
     p.add_argument("--steps", type=int, default=None, help="override the number of steps")
     p.add_argument("--no-figures", action="store_true")
@@ -464,7 +486,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--policies",
         default="failure_aware,vanilla",
-        help=f"comma-separated, from {', '.join(POLICY_NAMES)} (default: failure_aware,vanilla)",
+        help=f"comma-separated: {', '.join(POLICY_NAMES)}, a registered name or "
+        "package.module:Class (default: failure_aware,vanilla)",
     )
     p.add_argument("--seeds", type=int, default=5, help="seeds 1..N per policy (default: 5)")
     p.add_argument(

@@ -134,10 +134,12 @@ class TeamObservation:
 
     @property
     def n_robots(self) -> int:
+        """Number of robots ``M``."""
         return int(self.positions.shape[0])
 
     @property
     def n_targets(self) -> int:
+        """Number of targets ``N``."""
         return int(self.measurements.shape[1])
 
 

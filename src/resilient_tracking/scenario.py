@@ -7,13 +7,23 @@ A scenario is a YAML mapping validated by the pydantic models below. ``load_scen
 
 from __future__ import annotations
 
+import importlib
 import math
 import reprlib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    SerializeAsAny,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+)
 from pydantic import Strict as StrictMode
 
 #: Largest magnitude (m, m/s) of a coordinate; beyond it, products of positions overflow.
@@ -101,14 +111,25 @@ class RobotSpec(Strict):
     )
 
 
-class ConstantVelocity(Strict):
+class MotionSpec(Strict):
+    """Base of a target motion's parameters; ``type`` selects the motion by its registered name
+    (:mod:`resilient_tracking.world.target_motion`)."""
+
+    type: str = Field(description="Selects the motion: a registered name or package.module:Class.")
+
+
+class ConstantVelocity(MotionSpec):
+    """Straight line at a constant velocity."""
+
     type: Literal["constant_velocity"] = Field(description="Selects this motion.")
     velocity: Vec2 = Field(
         ..., description="Constant velocity [v_x, v_y].", json_schema_extra={"unit": "m/s"}
     )
 
 
-class Waypoints(Strict):
+class Waypoints(MotionSpec):
+    """Straight segments through points at a constant speed."""
+
     type: Literal["waypoints"] = Field(description="Selects this motion.")
     points: list[Vec2] = Field(
         min_length=1,
@@ -127,7 +148,7 @@ class Waypoints(Strict):
     )
 
 
-class Circle(Strict):
+class Circle(MotionSpec):
     """Circle around ``center`` through the start point; positive ``angular_speed`` is CCW."""
 
     type: Literal["circle"] = Field(description="Selects this motion.")
@@ -145,7 +166,7 @@ class Circle(Strict):
     )
 
 
-class NoisyConstantVelocity(Strict):
+class NoisyConstantVelocity(MotionSpec):
     """Nearly-constant-velocity truth: white acceleration noise of ``accel_std`` per axis."""
 
     type: Literal["ncv"] = Field(description="Selects this motion.")
@@ -163,8 +184,32 @@ class NoisyConstantVelocity(Strict):
     )
 
 
+def _plugin_spec(registry: str, tag: str) -> Any:
+    """A before-validator: the ``Spec`` of the class the mapping's ``tag`` names in the registry
+    ``registry`` (``module:ATTRIBUTE``, imported on first use), validated with it, so errors
+    name the fields of that ``Spec``."""
+
+    def validate(value: Any) -> Any:
+        if isinstance(value, BaseModel):
+            return value
+        if not isinstance(value, dict) or not isinstance(value.get(tag), str):
+            raise ValueError(f"must be a mapping with a {tag!r} naming the model")
+        from resilient_tracking.registry import UnknownName
+
+        module, _, attr = registry.partition(":")
+        try:
+            cls = getattr(importlib.import_module(module), attr).get(value[tag])
+        except UnknownName as err:
+            raise ValueError(str(err)) from None
+        return cls.Spec.model_validate(value)
+
+    return BeforeValidator(validate)
+
+
+#: A target's motion: the ``Spec`` of the motion its ``type`` names.
 TargetMotion = Annotated[
-    ConstantVelocity | Waypoints | Circle | NoisyConstantVelocity, Field(discriminator="type")
+    SerializeAsAny[MotionSpec],
+    _plugin_spec("resilient_tracking.world.target_motion:MOTIONS", "type"),
 ]
 
 
@@ -230,7 +275,16 @@ class EstimatorSpec(Strict):
 # ---------------------------------------------------------------------------- danger zones
 
 
-class GaussianHazard(Strict):
+class HazardSpec(Strict):
+    """Base of a hazard model's parameters; ``model`` selects the model by its registered name
+    (:mod:`resilient_tracking.world.hazard_model`)."""
+
+    model: str = Field(
+        description="Selects the hazard model: a registered name or package.module:Class."
+    )
+
+
+class GaussianHazard(HazardSpec):
     """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (docs/model.md §2)."""
 
     model: Literal["gaussian"] = Field(description="Selects this hazard model.")
@@ -244,7 +298,7 @@ class GaussianHazard(Strict):
     )
 
 
-class DiskHazard(Strict):
+class DiskHazard(HazardSpec):
     """Hit with probability ``p_hit`` at each activation tick while inside the true disk."""
 
     model: Literal["disk"] = Field(description="Selects this hazard model.")
@@ -259,7 +313,11 @@ class DiskHazard(Strict):
     )
 
 
-Hazard = Annotated[GaussianHazard | DiskHazard, Field(discriminator="model")]
+#: A zone's hazard: the ``Spec`` of the hazard model its ``model`` names.
+Hazard = Annotated[
+    SerializeAsAny[HazardSpec],
+    _plugin_spec("resilient_tracking.world.hazard_model:HAZARDS", "model"),
+]
 
 
 def _check_covariance(value: Matrix2) -> Matrix2:
@@ -566,8 +624,27 @@ class SogParams(Strict):
 
 
 class PolicySpec(Strict):
-    name: Literal["vanilla", "failure_aware", "sog"] = Field(
-        "failure_aware", description="Policy the team uses (rtrack run --policy overrides it)."
+    """The team's policy by name, and the parameters of every policy the file configures.
+
+    A built-in policy reads its parameters from its own section (``vanilla``, ``failure_aware``,
+    ``sog``); any other policy, registered by an installed package or named by its class as
+    ``package.module:Class``, reads them from ``params``, validated by the policy's own
+    ``Params`` model.
+    """
+
+    name: str = Field(
+        "failure_aware",
+        description=(
+            "Policy the team uses: failure_aware, vanilla, sog, a name an installed package "
+            "registers, or a class as package.module:Class (rtrack run --policy overrides it)."
+        ),
+    )
+    params: dict[str, Any] = Field(
+        default_factory=dict,
+        description=(
+            "Parameters of the policy named by name when it is not a built-in, checked by its "
+            "Params model (docs/own-policy.md)."
+        ),
     )
     vanilla: VanillaParams = Field(
         VanillaParams(), description="Parameters of the vanilla baseline."
@@ -579,7 +656,47 @@ class PolicySpec(Strict):
         SogParams(), description="Parameters of the SOG baseline (reconstruction)."
     )
 
+    @field_validator("name")
+    @classmethod
+    def _known_policy(cls, name: str) -> str:
+        from resilient_tracking.policies.base import POLICIES
+        from resilient_tracking.registry import UnknownName
 
+        try:
+            POLICIES.get(name)
+        except UnknownName as err:
+            raise ValueError(str(err)) from None
+        return name
+
+    @field_validator("params")
+    @classmethod
+    def _valid_params(cls, params: dict[str, Any], info: ValidationInfo) -> dict[str, Any]:
+        name = info.data.get("name")
+        if name is None:  # the name is wrong; that is the error to report
+            return params
+        if name in POLICY_NAMES:
+            if params:
+                raise ValueError(
+                    f"the built-in policy {name!r} takes its parameters from policy.{name}"
+                )
+            return params
+        from resilient_tracking.policies.base import POLICIES
+
+        POLICIES.get(name).Params.model_validate(params)  # errors name policy.params.<field>
+        return params
+
+    def params_for(self, name: str, model: type[BaseModel]) -> BaseModel:
+        """The validated parameters of the policy ``name`` whose ``Params`` is ``model``: a
+        built-in's section, ``params`` for the named policy, else the model's defaults."""
+        if name in POLICY_NAMES:
+            section: BaseModel = getattr(self, name)
+            return section
+        if name == self.name:
+            return model.model_validate(self.params)
+        return model()
+
+
+#: The built-in policies, each with its own section under ``policy``.
 POLICY_NAMES: tuple[str, ...] = ("vanilla", "failure_aware", "sog")
 
 
@@ -655,6 +772,9 @@ class PlannerSpec(Strict):
 
 
 class Scenario(Strict):
+    """A whole scenario file: team, targets, zones, policy and planner (docs/scenario-format.md).
+    """
+
     name: str = Field("scenario", description="Label used in output folders and plots.")
     description: str = Field("", description="Free text.")
     seed: int = Field(
@@ -762,7 +882,7 @@ def _short(value: Any, limit: int = 80) -> str:
 
 
 #: Discriminator key of the tagged union held by a field (a list's items for ``zones``).
-_UNION_TAG = {"zones": "kind", "motion": "type", "hazard": "model"}
+_UNION_TAG = {"zones": "kind"}
 
 
 def _field_path(loc: tuple[int | str, ...], data: Any) -> str:

@@ -23,7 +23,7 @@ import yaml
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-from resilient_tracking.scenario import MAX_COORDINATE, Scenario
+from resilient_tracking.scenario import MAX_COORDINATE, HazardSpec, MotionSpec, Scenario
 
 
 @dataclass(frozen=True)
@@ -46,11 +46,26 @@ def _is_union(annotation: Any) -> bool:
     return get_origin(annotation) in (Union, types.UnionType)
 
 
+def _builtin_specs(base: type[BaseModel]) -> list[type[BaseModel]] | None:
+    """The ``Spec`` of every built-in of a registry-selected field (hazard models, target
+    motions), in registration order; ``None`` for any other model."""
+    if base is HazardSpec:
+        from resilient_tracking.world.hazard_model import HAZARDS
+
+        return [HAZARDS.get(n).Spec for n in HAZARDS.builtin_names()]
+    if base is MotionSpec:
+        from resilient_tracking.world.target_motion import MOTIONS
+
+        return [MOTIONS.get(n).Spec for n in MOTIONS.builtin_names()]
+    return None
+
+
 def _models(annotation: Any) -> list[type[BaseModel]]:
-    """The models a field holds directly, in a list or in a union (``None`` left out)."""
+    """The models a field holds directly, in a list or in a union (``None`` left out); a
+    registry-selected field holds the built-in variants."""
     annotation = _strip(annotation)
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return [annotation]
+        return _builtin_specs(annotation) or [annotation]
     if get_origin(annotation) is list:
         return _models(get_args(annotation)[0])
     if _is_union(annotation):
@@ -80,6 +95,10 @@ def type_name(annotation: Any) -> str:
             return "list of points"
         return "list of mappings"
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        if _builtin_specs(annotation) is not None:
+            return "mapping (one of the variants below, or one a package registers)"
+        return "mapping"
+    if origin is dict:
         return "mapping"
     return {float: "number", int: "integer", str: "string", bool: "bool"}.get(
         annotation, str(annotation)

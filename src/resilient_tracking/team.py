@@ -77,6 +77,7 @@ class Team:
             initial=initial_estimate,
             ekf=ExtendedKalmanFilter(config.target_model, config.sensor),
             learns_zones=policy.learns_zones,
+            silent_robot_watch=policy.silent_robot_watch,
         )
         self.n_targets = int(initial_estimate.mean.shape[0])
 

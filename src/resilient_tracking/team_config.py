@@ -13,6 +13,8 @@ from resilient_tracking.scenario import Scenario
 
 @dataclass(frozen=True)
 class TeamConfig:
+    """What a team knows about itself (module docstring); the same for every policy."""
+
     dt: float
     u_max: np.ndarray  # (M,)
     lower: np.ndarray  # (2,) workspace corner
@@ -24,6 +26,7 @@ class TeamConfig:
 
     @property
     def n_robots(self) -> int:
+        """Number of robots ``M``."""
         return len(self.u_max)
 
     def velocity_bounds(
@@ -38,6 +41,7 @@ class TeamConfig:
 
     @classmethod
     def from_scenario(cls, scenario: Scenario) -> TeamConfig:
+        """The team a scenario declares: its robots, workspace, sensor and target model."""
         s = scenario.sensor
         return cls(
             dt=scenario.dt,

@@ -40,6 +40,7 @@ class TargetEstimate:
 
     @property
     def n_targets(self) -> int:
+        """Number of targets ``N``."""
         return int(self.mean.shape[0])
 
     def position_traces(self) -> FloatArray:

@@ -9,7 +9,9 @@ Each tick (docs/model.md §3–4):
 4. each league's EKF predicts to now and updates with its sensing members' measurements;
 5. every league covariance is checked (symmetric positive definite) and repaired with a
    ``covariance_repaired`` event if it drifted (:mod:`resilient_tracking.belief.health`);
-6. knowledge is merged within each league.
+6. knowledge is merged within each league;
+7. if the policy asks for it, robots with links watch silent ones and learn the comm zones
+   they reveal (:mod:`resilient_tracking.belief.silent_robots`, Alg. 3).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.fusion import fuse_estimates
 from resilient_tracking.belief.health import repair_covariances
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.belief.silent_robots import SilentRobotWatch
 from resilient_tracking.events import TEAM, Event
 from resilient_tracking.models.graph import components
 from resilient_tracking.observation import TeamObservation
@@ -42,11 +45,14 @@ class TeamBelief:
         ekf: ExtendedKalmanFilter,
         learns_zones: bool = True,
         ci_criterion: Literal["trace", "det"] = "trace",
+        silent_robot_watch: SilentRobotWatch | None = None,
     ):
         self.n_robots = n_robots
         self.ekf = ekf
         self.learns_zones = learns_zones
         self.ci_criterion = ci_criterion
+        #: infers comm zones from silent teammates at the end of each update (or ``None``)
+        self.silent_robot_watch = silent_robot_watch
         self.leagues: list[list[int]] = [list(range(n_robots))]
         self.league_of = np.zeros(n_robots, dtype=int)
         self.estimates: list[TargetEstimate] = [initial]  # one per league
@@ -61,6 +67,7 @@ class TeamBelief:
     # ------------------------------------------------------------------ tick
 
     def update(self, obs: TeamObservation) -> list[Event]:
+        """Take in one tick's observation (steps 1–7 above); return the tick's belief events."""
         events: list[Event] = []
         self.learned = []
         self.sensing_ok = np.asarray(obs.sensing_ok, dtype=bool)
@@ -80,6 +87,8 @@ class TeamBelief:
         events += self._check_health(obs.step)
         if self.learns_zones:
             self._share_knowledge()
+            if self.silent_robot_watch is not None:
+                events += self.silent_robot_watch.observe(self, obs)
         return events
 
     def _check_health(self, step: int) -> list[Event]:

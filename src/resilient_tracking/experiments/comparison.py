@@ -25,7 +25,7 @@ from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import Task, Variant, set_path
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
-from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError, parse_scenario
+from resilient_tracking.scenario import Scenario, ScenarioError, parse_scenario
 from resilient_tracking.sim.folders import write_text_atomic
 from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
@@ -107,11 +107,16 @@ def make_study(
     overrides: Sequence[tuple[str, object]] = (),
 ) -> Study:
     """Load and validate everything before anything runs (``ScenarioError`` / ``ValueError``)."""
-    unknown = [p for p in policies if p not in POLICY_NAMES]
-    if unknown or not policies:
-        raise ValueError(
-            f"--policies: unknown {unknown or 'none given'}; choose from {', '.join(POLICY_NAMES)}"
-        )
+    from resilient_tracking.policies import POLICIES
+    from resilient_tracking.registry import UnknownName
+
+    if not policies:
+        raise ValueError(f"--policies: none given; choose from {', '.join(POLICIES.names())}")
+    for name in policies:
+        try:
+            POLICIES.get(name)
+        except UnknownName as err:
+            raise ValueError(f"--policies: {err}") from None
     if n_seeds < 1:
         raise ValueError(f"--seeds: must be at least 1 (got {n_seeds})")
     loaded: dict[str, Scenario] = {}

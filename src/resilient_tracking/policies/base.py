@@ -1,151 +1,106 @@
-"""The policy contract: belief and observation in, velocity commands out."""
+"""The policy contract: belief and the tick's observation in, a :class:`Decision` out.
+
+A policy is a class with one verb, :meth:`Policy.act`. It reads only the team's
+:class:`~resilient_tracking.belief.team_belief.TeamBelief` and the tick's
+:class:`~resilient_tracking.observation.TeamObservation` (never the simulated world) and returns
+one velocity command per robot. Its parameters are a pydantic model, ``Params``, validated from
+the scenario's ``policy.params`` with the same error messages as every other field.
+
+Policies that plan with the league NLP of the paper (docs/model.md §5) build on
+:class:`~resilient_tracking.policies.planning_helpers.PlanningPolicy`; a policy of its own needs
+nothing but this module. Register a class with :func:`register_policy` (or an entry point in the
+group ``resilient_tracking.policies``) to make it findable by name.
+"""
 
 from __future__ import annotations
 
-import logging
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.planning.goals import keep_out_discs, route_rows
-from resilient_tracking.planning.layout import ProblemInputs, Weight, comm_table, sensing_table
-from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
-from resilient_tracking.planning.route import RouteMaps
-from resilient_tracking.planning.safe_action import safe_action
+from resilient_tracking.registry import Registry
 from resilient_tracking.team_config import TeamConfig
 
-log = logging.getLogger(__name__)
+if TYPE_CHECKING:
+    from resilient_tracking.belief.silent_robots import SilentRobotWatch
+    from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 
 
 @dataclass
 class Decision:
     """What a policy returns for one tick."""
 
-    controls: np.ndarray  # (M, 2)
+    #: ``(M, 2)`` velocity commands, one row per robot, within the robots' velocity bounds
+    controls: np.ndarray
+    #: one word per robot saying what it does ("league", "individual", "idle"…), for the tables
     modes: list[str]
+    #: what happened while deciding (solver fallbacks…), in order
     events: list[Event] = field(default_factory=list)
+    #: the league plans solved this tick (empty for a policy that does not plan)
     plans: list[PlanResult] = field(default_factory=list)
 
     @property
     def plan_ms(self) -> float:
+        """Total solve time of this tick's plans (ms)."""
         return float(sum(p.solve_ms for p in self.plans))
 
 
+class NoParams(BaseModel):
+    """Parameters of a policy that has none: the mapping must be empty."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
 class Policy(ABC):
-    """Decides velocities from belief; ``learns_zones`` says whether the team keeps zone
-    knowledge at all (the vanilla team does not)."""
+    """Decides every robot's velocity from belief, once per tick.
 
-    name: str = "policy"
-    learns_zones: bool = True
+    Subclasses set ``name``, ``Params`` (a pydantic model of their parameters) and implement
+    :meth:`act`. ``learns_zones`` says whether the team keeps zone knowledge at all (the vanilla
+    team does not); ``silent_robot_watch``, if set, lets the belief infer comm zones from
+    silent teammates (the failure-aware policy's Alg. 3).
+    """
 
-    def __init__(self, config: TeamConfig, planner: LeaguePlanner | None = None):
+    name: ClassVar[str] = "policy"
+    Params: ClassVar[type[BaseModel]] = NoParams
+    learns_zones: ClassVar[bool] = True
+
+    def __init__(self, config: TeamConfig, params: Any = None):
+        #: the team: number of robots, velocity bounds, sensor, time step
         self.config = config
-        self.planner = planner or LeaguePlanner()
-        #: route maps of the known keep-out regions, reused while knowledge is unchanged
-        self.route_maps = RouteMaps(config.lower, config.upper)
+        #: the validated ``Params`` (their defaults when none are given)
+        self.params = self.Params() if params is None else params
+        #: how the belief watches silent robots for this policy (``None``: it does not)
+        self.silent_robot_watch: SilentRobotWatch | None = None
+
+    @classmethod
+    def build(
+        cls, config: TeamConfig, params: BaseModel, planner: LeaguePlanner | None = None
+    ) -> Policy:
+        """The policy for a team, as :func:`make_policy` makes it; ``planner`` is the scenario's
+        league planner, ignored by policies that do not plan with it."""
+        return cls(config, params)
 
     @abstractmethod
-    def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision: ...
+    def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
+        """The commands for this tick, from belief and the tick's observation only.
 
-    # ------------------------------------------------------------------ shared helpers
-
-    def tracking_inputs(
-        self,
-        belief: TeamBelief,
-        obs: TeamObservation,
-        robots: list[int],
-        league: int,
-        weights: np.ndarray,
-        sensing: np.ndarray,
-        sensing_zones: np.ndarray | None = None,
-        comm_zones: np.ndarray | None = None,
-        with_route: bool = True,
-    ) -> ProblemInputs:
-        """Numeric inputs of a league problem: predicted targets, bounds, zones, and with the
-        route program each robot's route row."""
-        sensing_zones = sensing_table() if sensing_zones is None else sensing_zones
-        comm_zones = comm_table() if comm_zones is None else comm_zones
-        predicted = belief.ekf.predict(belief.estimates[league])
-        lower, upper = self.config.velocity_bounds(robots, obs.positions)
-        q = ProblemInputs(
-            positions=obs.positions[robots],
-            sensing=sensing.astype(float),
-            targets=predicted.mean[:, :2],
-            prior_info=np.linalg.inv(predicted.cov[:, :2, :2]),
-            weights=weights,
-            sensor=self.config.sensor.parameters,
-            dt=self.config.dt,
-            u_lower=lower,
-            u_upper=upper,
-            sensing_zones=sensing_zones,
-            comm_zones=comm_zones,
-            sensor_model=type(self.config.sensor),
-        )
-        route = self.planner.route
-        if route is None or not with_route:  # the one-step program, or a program of its own
-            return q
-        positions = obs.positions[robots]
-        discs = keep_out_discs(sensing_zones, comm_zones, _mean_spacing(positions))
-        q.route = route_rows(
-            positions,
-            sensing,
-            predicted.mean[:, :2],
-            predicted.mean[:, 2:4],
-            self.route_maps.get(discs),
-            self.config.u_max[robots],
-            float(weights[Weight.EFFORT]),
-            self.config.dt,
-            route,
-        )
-        q.standoff = route.standoff
-        return q
-
-    def solve(
-        self, robots: list[int], q: ProblemInputs, step: int, decision: Decision
-    ) -> np.ndarray:
-        """Plan for ``robots``; record the result and any fallback in ``decision``.
-
-        When no solver attempt succeeded (or the planner itself failed), the robots take the
-        :func:`~resilient_tracking.planning.safe_action.safe_action`: escape a known zone whose
-        constraint they violate, else hold. Every fallback is an event per robot.
+        ``belief`` has already been updated with ``obs`` (leagues, target estimates, zone
+        knowledge). Return ``Decision.controls`` of shape ``(M, 2)``, finite and within
+        ``self.config.velocity_bounds``, and one mode per robot.
         """
-        try:
-            result = self.planner.plan(q.structure(), tuple(robots), q)
-        except Exception as err:  # the ladder must hold even if the planner breaks
-            log.warning("league %s: planner raised %s: %s", robots, type(err).__name__, err)
-            result = PlanResult(
-                controls=np.zeros((len(robots), 2)),
-                status=f"planner exception: {type(err).__name__}",
-                success=False,
-                iterations=0,
-                solve_ms=0.0,
-                fallback="safe",
-            )
-        controls = result.controls
-        if not result.success or not np.all(np.isfinite(controls)):
-            controls, actions = safe_action(q)
-            result = replace(result, controls=controls, success=False, fallback="safe")
-            for i, action in zip(robots, actions, strict=True):
-                decision.events.append(
-                    Event(step, i, "solver_fallback", f"safe ({action}): {result.status}")
-                )
-        elif result.fallback:
-            for i in robots:
-                decision.events.append(
-                    Event(step, i, "solver_fallback", f"{result.fallback}: {result.status}")
-                )
-        decision.plans.append(result)
-        return controls
 
 
-def _mean_spacing(positions: np.ndarray) -> float:
-    """Mean distance (m) from each robot to its nearest teammate (0 for a robot alone)."""
-    if len(positions) < 2:
-        return 0.0
-    gaps = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=2)
-    np.fill_diagonal(gaps, np.inf)
-    return float(np.mean(gaps.min(axis=1)))
+#: Every policy findable by name: the built-ins, entry points of the group
+#: ``resilient_tracking.policies`` and dotted paths ``package.module:Class``.
+POLICIES: Registry[type[Policy]] = Registry(
+    "policy", "resilient_tracking.policies", Policy, builtins=("resilient_tracking.policies",)
+)
+
+#: Class decorator registering a policy under a name: ``@register_policy("greedy")``.
+register_policy = POLICIES.register

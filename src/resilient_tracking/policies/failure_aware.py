@@ -13,30 +13,37 @@ Per league, every tick:
 * for ``cooldown_steps`` after any temporary failure the whole team uses the cool-down weights.
 
 League members also watch silent robots: a circle fitted to one's positions becomes a comm
-zone estimate (Alg. 3) that the league avoids from then on.
+zone estimate (Alg. 3) that the league avoids from then on. That learning happens in belief
+(:mod:`resilient_tracking.belief.silent_robots`), set up here from the policy's parameters.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from resilient_tracking.belief.circle_fit import CircleGates, CircleWatcher, zone_from_circle
+from resilient_tracking.belief.circle_fit import CircleGates
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.belief.silent_robots import SilentRobotSettings, SilentRobotWatch
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, as_array, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
 from resilient_tracking.planning.layout import comm_row, comm_table, sensing_row, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
-from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.base import Decision, register_policy
+from resilient_tracking.policies.planning_helpers import PlanningPolicy
 from resilient_tracking.scenario import FailureAwareParams
 from resilient_tracking.team_config import TeamConfig
 
 
-class FailureAwarePolicy(Policy):
+@register_policy("failure_aware")
+class FailureAwarePolicy(PlanningPolicy):
+    """The paper's method, Algorithm 1 (module docstring)."""
+
     name = "failure_aware"
+    Params = FailureAwareParams
     learns_zones = True
+    params: FailureAwareParams
 
     def __init__(
         self,
@@ -44,39 +51,43 @@ class FailureAwarePolicy(Policy):
         params: FailureAwareParams,
         planner: LeaguePlanner | None = None,
     ):
-        super().__init__(config, planner)
-        self.params = params
+        super().__init__(config, params, planner)
         self.beta1 = chance_margin(params.eps1)
         self.beta2 = chance_margin(params.eps2)
         fit = params.circle_fit
-        self.watcher = CircleWatcher(
-            CircleGates(
-                window=fit.window,
-                min_samples=fit.min_samples,
-                min_arc=fit.min_arc,
-                max_residual=fit.max_residual,
-                min_radius=fit.min_radius,
-                max_radius=fit.max_radius,
-            ),
-            silent_steps=fit.silent_steps,
+        self.silent_robot_watch = SilentRobotWatch(
+            SilentRobotSettings(
+                gates=CircleGates(
+                    window=fit.window,
+                    min_samples=fit.min_samples,
+                    min_arc=fit.min_arc,
+                    max_residual=fit.max_residual,
+                    min_radius=fit.min_radius,
+                    max_radius=fit.max_radius,
+                ),
+                silent_steps=fit.silent_steps,
+                inferred_delta2=params.inferred_delta2,
+                beta2=self.beta2,
+                circle_margin=params.circle_margin,
+                silence_std=params.silence_std,
+                comm_range=config.comm_range,
+            )
         )
         #: the team is in cool-down while ``step < cooldown_until``
         self.cooldown_until = -1
         #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
         self.last_weights = np.zeros((config.n_robots, 5))
-        #: robots that had no link at the last tick
-        self._silent: set[int] = set()
 
     # ------------------------------------------------------------------ the tick
 
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
+        """Algorithm 1 for one tick: per league, circle, plan alone or plan together."""
         m = obs.n_robots
         decision = Decision(controls=np.zeros((m, 2)), modes=["league"] * m)
         if any(a.clue.persistence == "temporary" or a.cause == "jamming" for a in obs.attacks):
             self.cooldown_until = obs.step + self.params.cooldown_steps
         cooling = obs.step < self.cooldown_until
         attacked = int(np.sum(~obs.sensing_ok | ~obs.comm_ok))
-        self._watch_silent_robots(belief, obs, decision)
 
         for k, robots in enumerate(belief.leagues):
             knowledge = belief.league_knowledge(robots)
@@ -155,76 +166,3 @@ class FailureAwarePolicy(Policy):
             if z.source == "attack" and z.persistence == "permanent"
         ]
         return max(clues, key=lambda z: z.learned_step) if clues else None
-
-    def _watch_silent_robots(
-        self, belief: TeamBelief, obs: TeamObservation, decision: Decision
-    ) -> None:
-        """EstimateCircleParameters: robots with links observe the ones without."""
-        listeners = [i for i in range(obs.n_robots) if obs.links[i].any()]
-        for robot in range(obs.n_robots):
-            silent = not obs.links[robot].any()
-            if silent and robot not in self._silent and listeners:
-                self._suspect_jammer(belief, obs, robot, listeners, decision)
-            fit = self.watcher.observe(robot, obs.positions[robot], silent)
-            if fit is None or not listeners:
-                continue
-            zone = zone_from_circle(
-                fit,
-                robot,
-                obs.step,
-                delta2=self.params.inferred_delta2,
-                beta2=self.beta2,
-                margin=self.params.circle_margin,
-            )
-            for i in listeners:
-                belief.learn(i, zone)
-            decision.events.append(
-                Event(
-                    obs.step,
-                    robot,
-                    "zone_inferred",
-                    f"center=({fit.center[0]:.3f}, {fit.center[1]:.3f}) radius={fit.radius:.3f}"
-                    f" residual={fit.residual:.4f} arc={fit.arc:.2f} n={fit.n_samples}",
-                ),
-            )
-        self._silent = {i for i in range(obs.n_robots) if not obs.links[i].any()}
-
-    def _suspect_jammer(
-        self,
-        belief: TeamBelief,
-        obs: TeamObservation,
-        robot: int,
-        listeners: list[int],
-        decision: Decision,
-    ) -> None:
-        """A teammate within radio range fell silent: a jammer is near where it is (our
-        addition to Alg. 3). Until its circle is fitted, the league keeps clear of a
-        provisional comm zone there with spread ``silence_std``, unless one is known nearby.
-        """
-        std = self.params.silence_std
-        where = obs.positions[robot]
-        others = obs.positions[listeners]
-        reach = self.config.comm_range
-        if std <= 0 or (
-            reach is not None and np.min(np.linalg.norm(others - where, axis=1)) > reach
-        ):
-            return
-        known = belief.league_knowledge([listeners[0]]).of_kind("comm")
-        if any(np.linalg.norm(z.mean - where) < 2 * std for z in known):
-            return
-        zone = ZoneEstimate(
-            key=f"silence{robot}@{obs.step}",
-            kind="comm",
-            mean=np.array(where, dtype=float),
-            cov=std**2 * np.eye(2),
-            size=self.params.inferred_delta2,
-            persistence="unknown",
-            source="silence",
-            learned_step=obs.step,
-            zone_id=None,
-        )
-        for i in listeners:
-            belief.learn(i, zone)
-        decision.events.append(
-            Event(obs.step, robot, "zone_suspected", f"at ({where[0]:.3f}, {where[1]:.3f})")
-        )

@@ -17,21 +17,27 @@ listed in ``docs/paper-map.md``. Per league, every tick (program in ``planning/s
 
 Unlike the failure-aware policy it has no comm-zone reasoning, no circular evasion or circle
 inference and no cool-down; it learns sensing zones from attack clues and shares them within a
-league. A robot cut off from the others plans alone (mode ``individual``).
+league. A robot cut off from the others plans alone (mode ``individual``). When no solver
+attempt succeeds, the league takes the shared safe action
+(:meth:`~resilient_tracking.policies.planning_helpers.PlanningPolicy.settle`): SOG states no
+chance constraints, so a robot inside the disk of a sensing zone it knows (``β = 0``) steps out
+of it, every other robot holds.
 """
 
 from __future__ import annotations
+
+from functools import partial
 
 import numpy as np
 
 from resilient_tracking.belief.knowledge import KnowledgeBase
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.planning.layout import Weight
+from resilient_tracking.planning.layout import Weight, sensing_row, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.planning.sog_problem import SogInputs, SogPlanner, zone_rows
-from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.base import Decision, register_policy
+from resilient_tracking.policies.planning_helpers import PlanningPolicy
 from resilient_tracking.scenario import SogParams
 from resilient_tracking.team_config import TeamConfig
 
@@ -44,9 +50,14 @@ def abundance_weights(params: SogParams, abundance: float) -> tuple[float, float
     return lo.track ** (1 - a) * hi.track**a, lo.risk ** (1 - a) * hi.risk**a
 
 
-class SogPolicy(Policy):
+@register_policy("sog")
+class SogPolicy(PlanningPolicy):
+    """The risk-aware SOG baseline (module docstring): one SOG program per league."""
+
     name = "sog"
+    Params = SogParams
     learns_zones = True
+    params: SogParams
 
     def __init__(
         self,
@@ -55,8 +66,7 @@ class SogPolicy(Policy):
         planner: LeaguePlanner | None = None,
         sog_planner: SogPlanner | None = None,
     ):
-        super().__init__(config, planner)
-        self.params = params
+        super().__init__(config, params, planner)
         self.sog_planner = sog_planner or SogPlanner(self.planner.fault_hook)
         #: ``(w_track, w_risk)`` used at the last tick (for inspection and tests)
         self.last_weights = abundance_weights(params, 1.0)
@@ -75,7 +85,17 @@ class SogPolicy(Policy):
         zones = knowledge.of_kind("sensing")
         return zone_rows([z.mean for z in zones], [z.cov for z in zones])
 
+    @staticmethod
+    def known_disks(knowledge: KnowledgeBase) -> np.ndarray:
+        """Sensing rows of the known zones' disks (``β = 0``) for the safe action."""
+        rows = [
+            sensing_row(z.mean, z.cov, r_safe=z.size + z.clearance, beta=0.0)
+            for z in knowledge.of_kind("sensing")
+        ]
+        return sensing_table(rows)
+
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
+        """Per league: abundance weights, then the SOG program (module docstring)."""
         m = obs.n_robots
         decision = Decision(controls=np.zeros((m, 2)), modes=["league"] * m)
         w_track, w_risk = abundance_weights(self.params, float(np.mean(obs.sensing_ok)))
@@ -85,6 +105,7 @@ class SogPolicy(Policy):
             base = self.tracking_inputs(
                 belief, obs, robots, k, np.zeros(Weight.COUNT), sensing, with_route=False
             )
+            knowledge = belief.league_knowledge(robots)
             q = SogInputs(
                 positions=base.positions,
                 sensing=base.sensing,
@@ -94,7 +115,7 @@ class SogPolicy(Policy):
                 dt=base.dt,
                 u_lower=base.u_lower,
                 u_upper=base.u_upper,
-                zones=self.known_zones(belief.league_knowledge(robots)),
+                zones=self.known_zones(knowledge),
                 rho1=self.params.rho1,
                 rho2=self.params.rho2,
                 w_effort=self.params.effort,
@@ -104,14 +125,14 @@ class SogPolicy(Policy):
                 survival_scale=self.survival_scale(),
                 sensor_model=base.sensor_model,
             )
-            result = self.sog_planner.plan_sog(tuple(robots), q)
-            decision.plans.append(result)
-            if result.fallback:
-                for i in robots:
-                    decision.events.append(
-                        Event(obs.step, i, "solver_fallback", f"{result.fallback}: {result.status}")
-                    )
-            decision.controls[robots] = result.controls
+            base.sensing_zones = self.known_disks(knowledge)
+            decision.controls[robots] = self.settle(
+                partial(self.sog_planner.plan_sog, tuple(robots), q),
+                robots,
+                base,
+                obs.step,
+                decision,
+            )
             for i in robots:
                 decision.modes[i] = "league" if len(robots) > 1 else "individual"
         return decision

@@ -11,22 +11,29 @@ import numpy as np
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import LeaguePlanner
-from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.base import Decision, register_policy
+from resilient_tracking.policies.planning_helpers import PlanningPolicy
 from resilient_tracking.scenario import VanillaParams
 from resilient_tracking.team_config import TeamConfig
 
 
-class VanillaPolicy(Policy):
+@register_policy("vanilla")
+class VanillaPolicy(PlanningPolicy):
+    """The vanilla baseline (module docstring): fixed weights, no zone knowledge."""
+
     name = "vanilla"
+    Params = VanillaParams
     learns_zones = False
+    params: VanillaParams
 
     def __init__(
         self, config: TeamConfig, params: VanillaParams, planner: LeaguePlanner | None = None
     ):
-        super().__init__(config, planner)
+        super().__init__(config, params, planner)
         self.weights = np.array([params.w_track, params.w_effort, 0.0, 0.0])
 
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
+        """Per league, its sensing robots minimise tracking trace plus effort; others idle."""
         m = obs.n_robots
         decision = Decision(controls=np.zeros((m, 2)), modes=["idle"] * m)
         for k, robots in enumerate(belief.leagues):

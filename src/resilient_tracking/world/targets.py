@@ -1,17 +1,16 @@
-"""Scripted truth motion of the targets (docs/model.md §1)."""
+"""Scripted truth motion of the targets (docs/model.md §1).
+
+Each target's motion is found by its ``type`` in
+:data:`~resilient_tracking.world.target_motion.MOTIONS`; the built-ins are in
+:mod:`resilient_tracking.world.motions`.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.scenario import (
-    Circle,
-    ConstantVelocity,
-    NoisyConstantVelocity,
-    TargetSpec,
-    Waypoints,
-)
+from resilient_tracking.scenario import TargetSpec
+from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
 
 
 class TargetTruth:
@@ -19,18 +18,26 @@ class TargetTruth:
 
     def __init__(self, spec: TargetSpec):
         self.spec = spec
-        self.position = np.array(spec.start, dtype=float)
-        self.velocity = np.zeros(2)
-        self._next_waypoint = 0
-        motion = spec.motion
-        if isinstance(motion, ConstantVelocity | NoisyConstantVelocity):
-            self.velocity = np.array(motion.velocity, dtype=float)
-        elif isinstance(motion, Circle):
-            self._angle = float(np.arctan2(*(self.position - motion.center)[::-1]))
-            self._radius = float(np.linalg.norm(self.position - motion.center))
-            self.velocity = self._circle_velocity(motion)
-        elif isinstance(motion, Waypoints):
-            self.velocity = self._waypoint_velocity(motion)
+        start = np.asarray(spec.start, dtype=float)
+        self.motion: TargetMotion = MOTIONS.get(spec.motion.type)(spec.motion, start)
+
+    @property
+    def position(self) -> np.ndarray:
+        """True position (m)."""
+        return self.motion.position
+
+    @position.setter
+    def position(self, value: np.ndarray) -> None:
+        self.motion.position = value
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """True velocity (m/s)."""
+        return self.motion.velocity
+
+    @velocity.setter
+    def velocity(self, value: np.ndarray) -> None:
+        self.motion.velocity = value
 
     @property
     def state(self) -> np.ndarray:
@@ -38,54 +45,5 @@ class TargetTruth:
         return np.concatenate([self.position, self.velocity])
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
-        motion = self.spec.motion
-        if isinstance(motion, ConstantVelocity):
-            self.position = self.position + self.velocity * dt
-        elif isinstance(motion, NoisyConstantVelocity):
-            model = NearlyConstantVelocity(dt, motion.accel_std)
-            noise = (
-                rng.multivariate_normal(np.zeros(4), model.process_noise, method="cholesky")
-                if motion.accel_std > 0
-                else np.zeros(4)
-            )
-            state = model.transition @ self.state + noise
-            self.position, self.velocity = state[:2], state[2:]
-        elif isinstance(motion, Circle):
-            self._angle += motion.angular_speed * dt
-            center = np.asarray(motion.center)
-            self.position = center + self._radius * np.array(
-                [np.cos(self._angle), np.sin(self._angle)]
-            )
-            self.velocity = self._circle_velocity(motion)
-        elif isinstance(motion, Waypoints):
-            self._advance_waypoints(motion, dt)
-
-    def _circle_velocity(self, motion: Circle) -> np.ndarray:
-        w, r, a = motion.angular_speed, self._radius, self._angle
-        return np.array([-w * r * np.sin(a), w * r * np.cos(a)])
-
-    def _waypoint_velocity(self, motion: Waypoints) -> np.ndarray:
-        if self._next_waypoint >= len(motion.points):
-            return np.zeros(2)
-        delta = np.asarray(motion.points[self._next_waypoint]) - self.position
-        dist = float(np.linalg.norm(delta))
-        return np.zeros(2) if dist == 0 else delta / dist * motion.speed
-
-    def _advance_waypoints(self, motion: Waypoints, dt: float) -> None:
-        budget = motion.speed * dt
-        for _ in range(len(motion.points) + 1):  # bounded: a loop of coincident points ends
-            if budget <= 0 or self._next_waypoint >= len(motion.points):
-                break
-            goal = np.asarray(motion.points[self._next_waypoint], dtype=float)
-            delta = goal - self.position
-            dist = float(np.linalg.norm(delta))
-            if dist <= budget:
-                self.position = goal
-                budget -= dist
-                self._next_waypoint += 1
-                if motion.loop and self._next_waypoint == len(motion.points):
-                    self._next_waypoint = 0
-            else:
-                self.position = self.position + delta / dist * budget
-                budget = 0.0
-        self.velocity = self._waypoint_velocity(motion)
+        """Advance the truth by ``dt`` seconds."""
+        self.motion.step(dt, rng)

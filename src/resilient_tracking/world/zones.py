@@ -1,66 +1,26 @@
-"""Danger zones as they truly are, and the hazard models that fire attacks (docs/model.md §2)."""
+"""Danger zones as they truly are (docs/model.md §2); their hazard models fire the attacks.
+
+The hazard model of a zone is found by name in
+:data:`~resilient_tracking.world.hazard_model.HAZARDS`; the built-ins are in
+:mod:`resilient_tracking.world.hazards`.
+"""
 
 from __future__ import annotations
-
-import math
-from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
 from resilient_tracking.observation import ZoneClue
-from resilient_tracking.scenario import CommZone, DiskHazard, GaussianHazard, SensingZone
+from resilient_tracking.scenario import CommZone, SensingZone
+from resilient_tracking.world.hazard_model import HAZARDS, HazardModel
+from resilient_tracking.world.hazards import DiskHazardModel, GaussianHazardModel, gaussian_pdf
 
-
-def gaussian_pdf(x: np.ndarray, mu: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Density of ``N(mu, sigma)`` at the rows of ``x``."""
-    diff = np.atleast_2d(x) - mu
-    inv = np.linalg.inv(sigma)
-    m2 = np.einsum("ni,ij,nj->n", diff, inv, diff)
-    return np.exp(-0.5 * m2) / (2 * math.pi * math.sqrt(np.linalg.det(sigma)))
-
-
-class HazardModel(Protocol):
-    """Per-step attack probability of a zone for robots at ``positions``."""
-
-    def probability(self, positions: np.ndarray, step: int, dt: float) -> np.ndarray: ...
-
-
-@dataclass(frozen=True)
-class GaussianHazardModel:
-    """``1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))``: marginalised over the unknown center."""
-
-    mu: np.ndarray
-    sigma: np.ndarray
-    f_act: float
-    kappa: float
-
-    def probability(self, positions: np.ndarray, step: int, dt: float) -> np.ndarray:
-        rate = self.kappa * self.f_act * dt * gaussian_pdf(positions, self.mu, self.sigma)
-        return 1.0 - np.exp(-rate)
-
-
-@dataclass(frozen=True)
-class DiskHazardModel:
-    """Inside the true disk, hit with ``p_hit`` at each activation tick (every ``1/f_act`` s)."""
-
-    center: np.ndarray
-    radius: float
-    f_act: float
-    p_hit: float
-
-    def is_tick(self, step: int, dt: float) -> bool:
-        eps = 1e-9
-        return math.floor(step * dt * self.f_act + eps) != math.floor(
-            (step - 1) * dt * self.f_act + eps
-        )
-
-    def probability(self, positions: np.ndarray, step: int, dt: float) -> np.ndarray:
-        positions = np.atleast_2d(positions)
-        if not self.is_tick(step, dt):
-            return np.zeros(len(positions))
-        inside = np.linalg.norm(positions - self.center, axis=1) <= self.radius
-        return np.where(inside, self.p_hit, 0.0)
+__all__ = [
+    "DiskHazardModel",
+    "GaussianHazardModel",
+    "HazardModel",
+    "TrueZone",
+    "gaussian_pdf",
+]
 
 
 class TrueZone:
@@ -75,18 +35,7 @@ class TrueZone:
         self.kind = spec.kind
         self.size = spec.radius if isinstance(spec, SensingZone) else spec.delta2
         self._sigma_inv = np.linalg.inv(self.sigma)
-        hazard = spec.hazard
-        self.hazard: HazardModel
-        if isinstance(hazard, GaussianHazard):
-            self.hazard = GaussianHazardModel(self.mu, self.sigma, hazard.f_act, hazard.kappa)
-        else:
-            assert isinstance(hazard, DiskHazard)
-            disk_radius = spec.radius if isinstance(spec, SensingZone) else self._comm_disk()
-            self.hazard = DiskHazardModel(self.center, disk_radius, hazard.f_act, hazard.p_hit)
-
-    def _comm_disk(self) -> float:
-        # A comm zone has no radius; its disk hazard acts within its recovery region's scale.
-        return float(self.spec.m_recover * math.sqrt(np.linalg.eigvalsh(self.sigma).max()))
+        self.hazard: HazardModel = HAZARDS.get(spec.hazard.model).from_zone(spec.hazard, self)
 
     def in_influence(self, position: np.ndarray) -> bool:
         """Inside the Mahalanobis ball ``(x−μ)ᵀΣ⁻¹(x−μ) ≤ m_recover²`` (temporary failures)."""

@@ -1,0 +1,122 @@
+"""Comm zones learned from silent teammates (the paper's Alg. 3, EstimateCircleParameters).
+
+Robots that still have links watch the ones without: a teammate that falls silent within radio
+range suggests a jammer where it is (a provisional comm zone of spread ``silence_std``, our
+addition to Alg. 3), and a silent robot seen circling (CircularEvasionMode, Alg. 4) tells where
+its attacker is: the fitted circle becomes a comm zone estimate. Both are learned by every
+listener; the league shares them from the next tick on like any other knowledge.
+
+The team's belief runs this watch at the end of its update when the policy asks for it
+(:attr:`~resilient_tracking.policies.base.Policy.silent_robot_watch`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from resilient_tracking.belief.circle_fit import CircleGates, CircleWatcher, zone_from_circle
+from resilient_tracking.belief.knowledge import ZoneEstimate
+from resilient_tracking.events import Event
+from resilient_tracking.observation import TeamObservation
+
+if TYPE_CHECKING:
+    from resilient_tracking.belief.team_belief import TeamBelief
+
+
+@dataclass(frozen=True)
+class SilentRobotSettings:
+    """How silent robots are read: the circle gates and the zones made from what is seen."""
+
+    #: when an observed path counts as a circle
+    gates: CircleGates
+    #: steps without any working link before a robot is watched
+    silent_steps: int
+    #: jammer strength δ2 assumed for an inferred comm zone (it is not observable)
+    inferred_delta2: float
+    #: chance-constraint margin β2 of the evasion circle (eq. 7d at risk level ε2)
+    beta2: float
+    #: margin the evading robot added to its circle radius
+    circle_margin: float
+    #: spread (m) of the provisional zone where a teammate fell silent; 0 turns it off
+    silence_std: float
+    #: radio range (m) of the team, ``None`` for unlimited
+    comm_range: float | None
+
+
+class SilentRobotWatch:
+    """Per-team state of the watch: each robot's recent silent positions."""
+
+    def __init__(self, settings: SilentRobotSettings):
+        self.settings = settings
+        self.watcher = CircleWatcher(settings.gates, silent_steps=settings.silent_steps)
+        #: robots that had no link at the last tick
+        self._silent: set[int] = set()
+
+    def observe(self, belief: TeamBelief, obs: TeamObservation) -> list[Event]:
+        """Watch this tick's silent robots; learn what they reveal; one event per finding."""
+        s = self.settings
+        events: list[Event] = []
+        listeners = [i for i in range(obs.n_robots) if obs.links[i].any()]
+        for robot in range(obs.n_robots):
+            silent = not obs.links[robot].any()
+            if silent and robot not in self._silent and listeners:
+                events += self._suspect_jammer(belief, obs, robot, listeners)
+            fit = self.watcher.observe(robot, obs.positions[robot], silent)
+            if fit is None or not listeners:
+                continue
+            zone = zone_from_circle(
+                fit,
+                robot,
+                obs.step,
+                delta2=s.inferred_delta2,
+                beta2=s.beta2,
+                margin=s.circle_margin,
+            )
+            for i in listeners:
+                belief.learn(i, zone)
+            events.append(
+                Event(
+                    obs.step,
+                    robot,
+                    "zone_inferred",
+                    f"center=({fit.center[0]:.3f}, {fit.center[1]:.3f}) radius={fit.radius:.3f}"
+                    f" residual={fit.residual:.4f} arc={fit.arc:.2f} n={fit.n_samples}",
+                ),
+            )
+        self._silent = {i for i in range(obs.n_robots) if not obs.links[i].any()}
+        return events
+
+    def _suspect_jammer(
+        self, belief: TeamBelief, obs: TeamObservation, robot: int, listeners: list[int]
+    ) -> list[Event]:
+        """A teammate within radio range fell silent: a jammer is near where it is. Until its
+        circle is fitted, the league keeps clear of a provisional comm zone there, unless one
+        is known nearby."""
+        std = self.settings.silence_std
+        where = obs.positions[robot]
+        others = obs.positions[listeners]
+        reach = self.settings.comm_range
+        if std <= 0 or (
+            reach is not None and np.min(np.linalg.norm(others - where, axis=1)) > reach
+        ):
+            return []
+        known = belief.league_knowledge([listeners[0]]).of_kind("comm")
+        if any(np.linalg.norm(z.mean - where) < 2 * std for z in known):
+            return []
+        zone = ZoneEstimate(
+            key=f"silence{robot}@{obs.step}",
+            kind="comm",
+            mean=np.array(where, dtype=float),
+            cov=std**2 * np.eye(2),
+            size=self.settings.inferred_delta2,
+            persistence="unknown",
+            source="silence",
+            learned_step=obs.step,
+            zone_id=None,
+        )
+        for i in listeners:
+            belief.learn(i, zone)
+        return [Event(obs.step, robot, "zone_suspected", f"at ({where[0]:.3f}, {where[1]:.3f})")]

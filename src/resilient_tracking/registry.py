@@ -1,0 +1,134 @@
+"""Find plug-ins by name: policies, hazard models and target motions.
+
+A :class:`Registry` maps names to classes. A name is found, in this order, among
+
+1. the classes registered in this process (the built-ins register themselves with
+   :meth:`Registry.register` when their module is imported);
+2. the entry points of the registry's group, declared by installed packages in their
+   ``pyproject.toml``::
+
+       [project.entry-points."resilient_tracking.policies"]
+       greedy = "greedy_tracker.policy:GreedyPolicy"
+
+3. a dotted path ``package.module:Class``, imported on demand.
+
+So a new policy, hazard model or target motion is one new file in its own package: nothing in
+this package changes. Lookups raise :class:`UnknownName`, whose message lists what is known.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+from collections.abc import Callable
+from importlib.metadata import entry_points
+from typing import Generic, TypeVar
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T", bound=type)
+
+
+class UnknownName(LookupError):
+    """A name no registry entry, entry point or importable ``module:Class`` path matches."""
+
+    def __str__(self) -> str:  # LookupError would quote the message
+        return str(self.args[0])
+
+
+class Registry(Generic[T]):
+    """Classes of one kind (``kind`` names it in messages) found by name.
+
+    ``group`` is the entry-point group other packages register in; ``builtins`` are modules of
+    this package imported before the first lookup, so that their classes have registered.
+    ``base`` is the class every entry must subclass.
+    """
+
+    def __init__(self, kind: str, group: str, base: type, builtins: tuple[str, ...] = ()):
+        self.kind = kind
+        self.group = group
+        self.base = base
+        self._builtins = builtins
+        self._entries: dict[str, T] = {}
+        self._loaded = False
+
+    def register(self, name: str) -> Callable[[T], T]:
+        """Class decorator: ``@POLICIES.register("greedy")`` makes the class findable by name."""
+
+        def add(cls: T) -> T:
+            known = self._entries.get(name)
+            if known is not None and known is not cls:
+                raise ValueError(f"{self.kind} {name!r} is already registered as {known!r}")
+            self._check(cls, name)
+            self._entries[name] = cls
+            return cls
+
+        return add
+
+    def get(self, name: str) -> T:
+        """The class called ``name``: registered, an entry point, or ``package.module:Class``."""
+        self._load_builtins()
+        if name in self._entries:
+            return self._entries[name]
+        if ":" in name:
+            return self._import(name)
+        for ep in entry_points(group=self.group):
+            if ep.name == name:
+                try:
+                    cls = ep.load()
+                except Exception as err:  # a broken plug-in is named, never a traceback
+                    raise UnknownName(
+                        f"{self.kind} {name!r}: entry point {ep.value!r} failed to load "
+                        f"({type(err).__name__}: {err})"
+                    ) from None
+                self._check(cls, name)
+                self._entries.setdefault(name, cls)
+                return cls
+        raise UnknownName(
+            f"unknown {self.kind} {name!r}; choose from {', '.join(self.names())} "
+            "or give a class as package.module:Class"
+        )
+
+    def names(self) -> list[str]:
+        """Registered names and entry-point names, sorted (dotted paths are not listed)."""
+        self._load_builtins()
+        found = set(self._entries) | {ep.name for ep in entry_points(group=self.group)}
+        return sorted(found)
+
+    def builtin_names(self) -> list[str]:
+        """Names registered by this package's own modules, in registration order."""
+        self._load_builtins()
+        return [n for n, cls in self._entries.items() if _is_ours(cls)]
+
+    # ------------------------------------------------------------------ internals
+
+    def _load_builtins(self) -> None:
+        if not self._loaded:
+            self._loaded = True
+            for module in self._builtins:
+                importlib.import_module(module)
+
+    def _import(self, path: str) -> T:
+        module_name, _, attr = path.partition(":")
+        try:
+            module = importlib.import_module(module_name)
+        except Exception as err:
+            raise UnknownName(
+                f"{self.kind} {path!r}: cannot import module {module_name!r} "
+                f"({type(err).__name__}: {err})"
+            ) from None
+        cls = getattr(module, attr, None)
+        if cls is None:
+            raise UnknownName(f"{self.kind} {path!r}: module {module_name!r} has no {attr!r}")
+        self._check(cls, path)
+        return cls  # type: ignore[no-any-return]
+
+    def _check(self, cls: object, name: str) -> None:
+        if not (isinstance(cls, type) and issubclass(cls, self.base)):
+            raise UnknownName(
+                f"{self.kind} {name!r}: {cls!r} is not a subclass of {self.base.__name__}"
+            )
+
+
+def _is_ours(cls: type) -> bool:
+    return cls.__module__.split(".")[0] == __name__.split(".")[0]

@@ -1,0 +1,111 @@
+"""The built-in target motions (docs/model.md §1): constant velocity, nearly constant velocity
+with white acceleration noise, a circle and waypoints."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.scenario import Circle, ConstantVelocity, NoisyConstantVelocity, Waypoints
+from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
+
+
+@MOTIONS.register("constant_velocity")
+class ConstantVelocityMotion(TargetMotion):
+    """A straight line at the spec's velocity."""
+
+    Spec = ConstantVelocity
+
+    def __init__(self, spec: ConstantVelocity, start: np.ndarray):
+        super().__init__(spec, start)
+        self.velocity = np.array(spec.velocity, dtype=float)
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        """Move on at the current velocity."""
+        self.position = self.position + self.velocity * dt
+
+
+@MOTIONS.register("waypoints")
+class WaypointsMotion(TargetMotion):
+    """Straight segments through the points at constant speed, looping if asked."""
+
+    Spec = Waypoints
+
+    def __init__(self, spec: Waypoints, start: np.ndarray):
+        super().__init__(spec, start)
+        self._next_waypoint = 0
+        self.velocity = self._waypoint_velocity()
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        """Spend ``speed · dt`` of path, passing as many points as it reaches."""
+        budget = self.spec.speed * dt
+        points = self.spec.points
+        for _ in range(len(points) + 1):  # bounded: a loop of coincident points ends
+            if budget <= 0 or self._next_waypoint >= len(points):
+                break
+            goal = np.asarray(points[self._next_waypoint], dtype=float)
+            delta = goal - self.position
+            dist = float(np.linalg.norm(delta))
+            if dist <= budget:
+                self.position = goal
+                budget -= dist
+                self._next_waypoint += 1
+                if self.spec.loop and self._next_waypoint == len(points):
+                    self._next_waypoint = 0
+            else:
+                self.position = self.position + delta / dist * budget
+                budget = 0.0
+        self.velocity = self._waypoint_velocity()
+
+    def _waypoint_velocity(self) -> np.ndarray:
+        if self._next_waypoint >= len(self.spec.points):
+            return np.zeros(2)
+        delta = np.asarray(self.spec.points[self._next_waypoint]) - self.position
+        dist = float(np.linalg.norm(delta))
+        return np.zeros(2) if dist == 0 else delta / dist * self.spec.speed
+
+
+@MOTIONS.register("circle")
+class CircleMotion(TargetMotion):
+    """Around ``center`` through the start point at ``angular_speed`` (positive: CCW)."""
+
+    Spec = Circle
+
+    def __init__(self, spec: Circle, start: np.ndarray):
+        super().__init__(spec, start)
+        self._angle = float(np.arctan2(*(self.position - spec.center)[::-1]))
+        self._radius = float(np.linalg.norm(self.position - spec.center))
+        self.velocity = self._circle_velocity()
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        """Turn by ``angular_speed · dt`` on the circle."""
+        self._angle += self.spec.angular_speed * dt
+        center = np.asarray(self.spec.center)
+        self.position = center + self._radius * np.array([np.cos(self._angle), np.sin(self._angle)])
+        self.velocity = self._circle_velocity()
+
+    def _circle_velocity(self) -> np.ndarray:
+        w, r, a = self.spec.angular_speed, self._radius, self._angle
+        return np.array([-w * r * np.sin(a), w * r * np.cos(a)])
+
+
+@MOTIONS.register("ncv")
+class NoisyConstantVelocityMotion(TargetMotion):
+    """Nearly constant velocity: white acceleration noise of ``accel_std`` per axis."""
+
+    Spec = NoisyConstantVelocity
+
+    def __init__(self, spec: NoisyConstantVelocity, start: np.ndarray):
+        super().__init__(spec, start)
+        self.velocity = np.array(spec.velocity, dtype=float)
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        """``x ← F x + w`` with ``w ~ N(0, Q)`` of the NCV model (no draw when noise is off)."""
+        model = NearlyConstantVelocity(dt, self.spec.accel_std)
+        noise = (
+            rng.multivariate_normal(np.zeros(4), model.process_noise, method="cholesky")
+            if self.spec.accel_std > 0
+            else np.zeros(4)
+        )
+        state = model.transition @ np.concatenate([self.position, self.velocity]) + noise
+        self.position, self.velocity = state[:2], state[2:]

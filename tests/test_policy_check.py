@@ -1,0 +1,116 @@
+"""check_policy passes every built-in policy and names each kind of violation, no traceback."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from resilient_tracking import scenarios
+from resilient_tracking.policies import POLICIES, Decision, Policy
+from resilient_tracking.policy_check import PolicyCheckError, check_policy
+from resilient_tracking.scenario import POLICY_NAMES
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return scenarios.load("combined-temp")
+
+
+@pytest.mark.parametrize("name", POLICY_NAMES)
+def test_every_builtin_policy_passes(name, scenario):
+    report = check_policy(name, scenario)
+    assert report.ok, str(report)
+    assert len(report.ticks) >= 10
+    assert "every robot blind" in report.ticks
+
+
+def test_every_registered_builtin_is_checked():
+    assert set(POLICIES.builtin_names()) == set(POLICY_NAMES)
+
+
+class Still(Policy):
+    """Holds every robot; the subclasses below each break one promise."""
+
+    name = "still"
+
+    def act(self, belief, obs):
+        m = obs.n_robots
+        return Decision(controls=self.controls(obs), modes=["still"] * m)
+
+    def controls(self, obs):
+        return np.zeros((obs.n_robots, 2))
+
+
+class NonFinite(Still):
+    def controls(self, obs):
+        u = np.zeros((obs.n_robots, 2))
+        u[0] = np.nan
+        return u
+
+
+class TooFast(Still):
+    def controls(self, obs):
+        return np.full((obs.n_robots, 2), 1e3)
+
+
+class WrongShape(Still):
+    def controls(self, obs):
+        return np.zeros((obs.n_robots + 1, 2))
+
+
+class Raises(Still):
+    def controls(self, obs):
+        if not obs.sensing_ok.any():
+            raise RuntimeError("nobody sees anything")
+        return np.zeros((obs.n_robots, 2))
+
+
+class Random(Still):
+    def controls(self, obs):
+        return np.random.default_rng().uniform(-1e-3, 1e-3, (obs.n_robots, 2))
+
+
+class HoldsTruth(Still):
+    def __init__(self, config, params=None):
+        super().__init__(config, params)
+        from resilient_tracking.world.zones import TrueZone  # reaching for truth
+
+        self.zone_type = TrueZone
+
+
+def test_a_well_behaved_policy_passes(scenario):
+    assert check_policy(Still, scenario).ok
+
+
+@pytest.mark.parametrize(
+    ("cls", "words"),
+    [
+        (NonFinite, "controls of robots [0] are not finite"),
+        (TooFast, "outside their velocity bounds"),
+        (WrongShape, "controls have shape"),
+        (Raises, "act raised RuntimeError: nobody sees anything"),
+        (Random, "nondeterministic"),
+        (HoldsTruth, "imports resilient_tracking.world.zones"),
+    ],
+)
+def test_each_violation_is_named(cls, words, scenario):
+    report = check_policy(cls, scenario)
+    assert not report.ok
+    text = str(report)
+    assert words in text, text
+    assert "Traceback" not in text
+    with pytest.raises(PolicyCheckError, match="violation"):
+        report.raise_for_violations()
+
+
+def test_an_instance_is_checked_on_copies(scenario):
+    from resilient_tracking.team_config import TeamConfig
+
+    policy = NonFinite(TeamConfig.from_scenario(scenario))
+    report = check_policy(policy, scenario)
+    assert "not finite" in str(report)
+
+
+def test_blind_tick_is_where_raises_is_reported(scenario):
+    report = check_policy(Raises, scenario)
+    assert {v.tick for v in report.violations} == {"every robot blind"}
