@@ -126,9 +126,9 @@ def test_stragglers_are_sensing_robots_far_from_every_target():
     targets = pd.DataFrame({"x": [0.5, 0.0], "y": [0.0, 0.0]})
     # robot 1 is 2.5 m from the nearest target; robot 2 is as far but cannot sense;
     # robot 3 is 1.4 m from target 1
-    assert stragglers(robots, targets, 1.5) == 1
-    assert stragglers(robots, targets, 3.0) == 0
-    assert stragglers(robots.iloc[:0], targets, 1.5) == 0
+    assert list(stragglers(robots, targets, 1.5).index) == [1]
+    assert len(stragglers(robots, targets, 3.0)) == 0
+    assert len(stragglers(robots.iloc[:0], targets, 1.5)) == 0
 
 
 def test_last_third_mean_is_over_the_final_third():

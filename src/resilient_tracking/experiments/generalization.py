@@ -86,6 +86,13 @@ def straggler_share(summary: pd.DataFrame, policy: str = "failure_aware") -> Pro
     return wilson(int(rows["stragglers"].sum()), int(rows["sensing_end"].sum()))
 
 
+def _circling(rows: pd.DataFrame) -> str:
+    """Stragglers circling their attacker, which the paper's Alg. 4 sends away from tracking."""
+    if "stragglers_circling" not in rows:
+        return "–"
+    return f"{int(rows['stragglers_circling'].sum())} of {int(rows['stragglers'].sum())}"
+
+
 def _quantiles(values: pd.Series) -> str:
     if values.empty:
         return "no pairs"
@@ -108,8 +115,9 @@ def section(summary: pd.DataFrame) -> str:
     ]
     lost = [
         "| policy | runs | robots | robots lost (sensor or radio destroyed) | robots attacked "
-        "| robots sensing at the end | stragglers (> 1.5 m from every target) |",
-        "|---|---|---|---|---|---|---|",
+        "| robots sensing at the end | stragglers (> 1.5 m from every target) "
+        "| of them circling (radio destroyed) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     no_zones = summary.get("tag_no_zones", pd.Series(False, index=summary.index)).astype(bool)
     groups: list[tuple[str, pd.DataFrame]] = [
@@ -123,7 +131,8 @@ def section(summary: pd.DataFrame) -> str:
         lost.append(
             f"| {label} | {len(r)} | {robots} | {wilson(int(r.robots_lost.sum()), robots)} "
             f"| {wilson(int(r.robots_attacked.sum()), robots)} | {int(r.sensing_end.sum())} "
-            f"| {wilson(int(r.stragglers.sum()), int(r.sensing_end.sum()))} |"
+            f"| {wilson(int(r.stragglers.sum()), int(r.sensing_end.sum()))} "
+            f"| {_circling(r)} |"
         )
     return "\n\n".join(
         [
@@ -131,6 +140,8 @@ def section(summary: pd.DataFrame) -> str:
             "**Last-third trace ÷ the zone-free run's** (same policy and seed)\n\n"
             + "\n".join(ratio_lines),
             "**Robots lost and stragglers** (shares of robots; stragglers among those that can "
-            "still sense at the end)\n\n" + "\n".join(lost),
+            "still sense at the end; a robot whose radio a zone destroyed circles its attacker "
+            "for good, as the paper's Alg. 4 prescribes, so it is a straggler by design)\n\n"
+            + "\n".join(lost),
         ]
     )

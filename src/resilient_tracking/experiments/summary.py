@@ -33,17 +33,17 @@ def final_positions(run: RunData) -> tuple[pd.DataFrame, pd.DataFrame]:
     return robots, targets
 
 
-def stragglers(robots: pd.DataFrame, targets: pd.DataFrame, distance: float) -> int:
-    """Robots that can sense (``sensing_ok``) but are farther than ``distance`` from every
-    target (true positions ``x, y`` of the given rows)."""
+def stragglers(robots: pd.DataFrame, targets: pd.DataFrame, distance: float) -> pd.DataFrame:
+    """Rows of the robots that can sense (``sensing_ok``) but are farther than ``distance``
+    from every target (true positions ``x, y`` of the given rows)."""
     able = robots[robots["sensing_ok"].astype(bool)]
     if able.empty or targets.empty:
-        return 0
+        return able.iloc[:0]
     gaps = np.hypot(
         able["x"].to_numpy()[:, None] - targets["x"].to_numpy()[None, :],
         able["y"].to_numpy()[:, None] - targets["y"].to_numpy()[None, :],
     )
-    return int((gaps.min(axis=1) > distance).sum())
+    return able[gaps.min(axis=1) > distance]
 
 
 def robots_lost(events: pd.DataFrame) -> int:
@@ -63,6 +63,7 @@ def summarise_run(run: RunData) -> dict[str, Any]:
     tags = run.manifest.get("tags", {}) or {}
     robots_end, targets_end = final_positions(run)
     fallbacks = events["event"] == "solver_fallback" if len(events) else pd.Series(dtype=bool)
+    far = stragglers(robots_end, targets_end, STRAGGLER_DISTANCE)
     return {
         "experiment": run.manifest.get("experiment", ""),
         "variant": run.manifest.get("variant", run.policy),
@@ -83,7 +84,9 @@ def summarise_run(run: RunData) -> dict[str, Any]:
         "robots_lost": robots_lost(events),
         "sensing_failed_end": int(team["n_sensing_failed"].iloc[-1]),
         "sensing_end": int(robots_end["sensing_ok"].astype(bool).sum()),
-        "stragglers": stragglers(robots_end, targets_end, STRAGGLER_DISTANCE),
+        "stragglers": len(far),
+        # of them, robots whose radio a zone destroyed: they circle their attacker (Alg. 4)
+        "stragglers_circling": int((far["mode"] == "circular").sum()) if "mode" in far else 0,
         "survival_steps": survival_steps(team, n_robots),
         "zones_inferred": int((events["event"] == "zone_inferred").sum()) if len(events) else 0,
         "solver_failures": int(team["n_solver_failures"].sum())
