@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "one-step outside planning (ms/step)",
         "route outside planning",
         "solver failures one-step / route",
-        "structures rebuilt in the timed run",
+        "solvers created in the timed run",
         "steps planning > 100 ms",
     ]
     print(table(rows, header))

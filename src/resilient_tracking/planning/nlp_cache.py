@@ -3,7 +3,10 @@
 Symbolic problems (with their compile jobs) are shared process-wide: building them is the
 expensive, stateless part. Solvers are not shared: qpOASES keeps state from one solve to the
 next, so a solver's results depend on its history, which must be the episode's own. The
-least recently used problems beyond ``NLP_BUDGET`` instructions (≈ 160 MB) are forgotten.
+least recently used problems beyond ``NLP_BUDGET`` instructions are forgotten: about 40 MB
+per million, so ≈ 650 MB, enough for the 14 symbolic problems (10.7 million) a 20×20 team
+meets in 300 steps of the soak; a budget below a mission's working set makes the LRU cache
+forget each structure before it comes back (docs/performance.md).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from resilient_tracking.planning.solver_options import SQP_MARGIN
 
 log = logging.getLogger(__name__)
 
-NLP_BUDGET = 4_000_000
+NLP_BUDGET = 16_000_000
 #: guards the cache's bookkeeping, never a build (a planner may build in a worker thread)
 _LOCK = threading.Lock()
 _NLPS: LruCache[tuple[Structure, float, Slots | None], LeagueNLP] = LruCache(

@@ -263,7 +263,7 @@ class LeaguePlanner(SolverLadder):
         route = spec.route if spec.program == "route" else None
         return cls(spec.solver, fault_hook=fault_hook, route=route)
 
-    #: ≈ 160 MB of symbolic code and solvers: four 20×20 structures, hundreds of 3×3 ones
+    #: weighed in instructions of symbolic code, like the shared cache of symbolic problems
     PROBLEM_BUDGET = NLP_BUDGET
 
     def build(self, structure: Structure) -> LeagueProblem:
