@@ -30,6 +30,8 @@ class TargetTruth:
             self._radius = float(np.linalg.norm(self.position - motion.center))
             self.velocity = self._circle_velocity(motion)
         elif isinstance(motion, Waypoints):
+            #: the waypoints as arrays, once (the motion reads them every step)
+            self._points = [np.asarray(p, dtype=float) for p in motion.points]
             self.velocity = self._waypoint_velocity(motion)
 
     @property
@@ -67,8 +69,8 @@ class TargetTruth:
     def _waypoint_velocity(self, motion: Waypoints) -> np.ndarray:
         if self._next_waypoint >= len(motion.points):
             return np.zeros(2)
-        delta = np.asarray(motion.points[self._next_waypoint]) - self.position
-        dist = float(np.linalg.norm(delta))
+        delta = self._points[self._next_waypoint] - self.position
+        dist = _length(delta)
         return np.zeros(2) if dist == 0 else delta / dist * motion.speed
 
     def _advance_waypoints(self, motion: Waypoints, dt: float) -> None:
@@ -76,9 +78,9 @@ class TargetTruth:
         for _ in range(len(motion.points) + 1):  # bounded: a loop of coincident points ends
             if budget <= 0 or self._next_waypoint >= len(motion.points):
                 break
-            goal = np.asarray(motion.points[self._next_waypoint], dtype=float)
+            goal = self._points[self._next_waypoint]
             delta = goal - self.position
-            dist = float(np.linalg.norm(delta))
+            dist = _length(delta)
             if dist <= budget:
                 self.position = goal
                 budget -= dist
@@ -89,3 +91,9 @@ class TargetTruth:
                 self.position = self.position + delta / dist * budget
                 budget = 0.0
         self.velocity = self._waypoint_velocity(motion)
+
+
+def _length(v: np.ndarray) -> float:
+    """``‖v‖`` of a 1-D vector computed as ``np.linalg.norm`` does (``√(v·v)``), without its
+    argument checks (called every step)."""
+    return float(np.sqrt(v.dot(v)))
