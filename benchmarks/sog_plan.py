@@ -139,10 +139,17 @@ def run_case(name: str, seed: int, steps: int | None, repeats: int) -> dict[str,
     for planner in ("after", "ipopt"):
         mine = runs[planner][-1]
         pairs = zip(mine["controls"], before["controls"], strict=True)
-        du = max(float(np.abs(a - b).max()) for a, b in pairs)
-        df = np.nanmax(
-            np.abs(np.array(mine["f"]) - before["f"]) / (1.0 + np.abs(before["f"]))
-        )
+        gaps = [float(np.abs(a - b).max()) for a, b in pairs]
+        du = max(gaps)
+        worst = int(np.argmax(gaps))
+        out[planner]["worst_step"] = {
+            "solve": worst,
+            "max_control_difference": du,
+            "f": mine["f"][worst],
+            "f_before": before["f"][worst],
+            "solves_over_1e-3": int(sum(g > 1e-3 for g in gaps)),
+        }
+        df = np.nanmax(np.abs(np.array(mine["f"]) - before["f"]) / (1.0 + np.abs(before["f"])))
         out[planner]["max_control_difference"] = du
         out[planner]["max_objective_difference"] = float(df)
     return out
@@ -195,6 +202,14 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             ],
         )
     )
+    for label, found in results["cases"].items():
+        w = found["after"]["worst_step"]
+        print(
+            f"{label}: largest |Δu| after vs before at solve {w['solve']}: "
+            f"{w['max_control_difference']:.3g} m/s, "
+            f"objective {w['f']:.6g} (before {w['f_before']:.6g}); "
+            f"{w['solves_over_1e-3']} of {found['solves']} solves differ by more than 1e-3 m/s"
+        )
     save("sog_plan", results)
     return results
 
