@@ -11,10 +11,13 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from helpers import shipped
+from resilient_tracking.belief import health
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.health import is_spd, repair_covariances
 from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.models.sensor import RangeBearingSensor
 from resilient_tracking.sim.episode import run_episode
 
 # ---------------------------------------------------------------------------- repair
@@ -76,6 +79,49 @@ def test_any_finite_stack_comes_out_spd(cov):
     assert is_spd(out)
     if not repairs:  # nothing reported: nothing but exact rounding-level symmetrisation
         assert np.allclose(out, cov, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(cov).max()))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    arrays(
+        np.float64,
+        (3, 4, 4),
+        elements=st.floats(-10.0, 10.0, allow_nan=False, allow_infinity=False),
+    ),
+    st.floats(1e-14, 1e3),
+)
+def test_the_quick_health_check_agrees_with_the_eigen_decomposition(factor, shift):
+    """The Cholesky shortcut for healthy stacks decides as the full check does: same matrices
+    out, and no repair it would have reported is skipped (near-singular stacks included)."""
+    cov = np.asarray(factor)
+    spd = cov @ np.swapaxes(cov, 1, 2) + shift * np.eye(4)  # symmetric, eigenvalues ≥ shift
+    for stack in (spd, 0.5 * (spd + np.swapaxes(spd, 1, 2)), cov):
+        quick = health._surely_healthy(np.array(stack))
+        full, repairs = _full_repair(stack)
+        if quick is not None:
+            assert not repairs
+            np.testing.assert_array_equal(quick, full)
+
+
+def _full_repair(cov):
+    original = health._surely_healthy
+    health._surely_healthy = lambda c: None
+    try:
+        return repair_covariances(cov)
+    finally:
+        health._surely_healthy = original
+
+
+def test_a_prediction_asked_for_again_is_the_same_numbers():
+    ekf = ExtendedKalmanFilter(NearlyConstantVelocity(0.1, 0.2), RangeBearingSensor())
+    est = TargetEstimate.initial(np.array([[0.0, 1.0, 0.1, 0.0], [1.0, -1.0, 0.0, 0.2]]), 0.3, 0.1)
+    first = ekf.predict(est)
+    assert ekf.predict(est) is first
+    other = ExtendedKalmanFilter(ekf.model, ekf.sensor).predict(est.copy())  # computed anew
+    np.testing.assert_array_equal(first.mean, other.mean)
+    np.testing.assert_array_equal(first.cov, other.cov)
+    moved = TargetEstimate(est.mean + 1.0, est.cov)  # a new estimate: a new prediction
+    assert not np.array_equal(ekf.predict(moved).mean, first.mean)
 
 
 # ---------------------------------------------------------------------------- in a team

@@ -131,6 +131,36 @@ def test_report_has_a_table_figures_and_claims_for_each_experiment(tmp_path):
     assert (tmp_path / "tiny" / "summary.csv").exists()
 
 
+def test_figures_are_drawn_again_only_when_their_runs_change(tmp_path, monkeypatch):
+    """A second report of the same stored runs reads no run and draws nothing; a run that
+    changed redraws that experiment's figures (in two worker processes) and the report is
+    the same text either way."""
+    todo = tiny_tasks(steps=30)
+    run_sweep(todo, tmp_path)
+    first = write_report([TINY], {"tiny": todo}, tmp_path, "test").read_text()
+    figures = sorted((tmp_path / "tiny" / "figures").glob("*.png"))
+    assert figures and (tmp_path / "tiny" / "figures" / "inputs.sha256").exists()
+    drawn = {p: p.stat().st_mtime_ns for p in figures}
+
+    import resilient_tracking.experiments.report as report_module
+
+    def no_reading(path):
+        raise AssertionError(f"read {path} although its runs did not change")
+
+    with monkeypatch.context() as m:
+        m.setattr(report_module, "load_run", no_reading)
+        again = write_report([TINY], {"tiny": todo}, tmp_path, "test").read_text()
+    assert again == first
+    assert {p: p.stat().st_mtime_ns for p in figures} == drawn
+
+    # one run differs (a longer episode): every figure of the experiment is drawn again
+    longer = tiny_tasks(steps=31)
+    run_sweep(longer[:1], tmp_path)
+    todo = [longer[0], *todo[1:]]
+    write_report([TINY], {"tiny": todo}, tmp_path, "test", jobs=2)
+    assert all(p.stat().st_mtime_ns != drawn[p] for p in figures)
+
+
 def _summary(**columns):
     return pd.DataFrame(columns)
 

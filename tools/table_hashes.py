@@ -69,10 +69,17 @@ def fingerprints(runs: list[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--write", action="store_true", help=f"record into {GOLDEN}")
+    parser.add_argument(
+        "--policy",
+        choices=sorted({policy for _, policy in RUNS}),
+        help="only the runs of this policy (with --write: re-record only their entries)",
+    )
     args = parser.parse_args()
-    found = fingerprints()
+    found = fingerprints([r for r in RUNS if args.policy in (None, r[1])])
     if args.write:
-        GOLDEN.write_text(json.dumps(found, indent=1, sort_keys=True) + "\n")
+        recorded = json.loads(GOLDEN.read_text()) if GOLDEN.exists() else {}
+        recorded.update(found)
+        GOLDEN.write_text(json.dumps(recorded, indent=1, sort_keys=True) + "\n")
         print(f"wrote {GOLDEN}")
         return
     golden = json.loads(GOLDEN.read_text())

@@ -189,7 +189,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
         )
     command = " ".join(["rtrack reproduce", *args.argv])
-    report = write_report(experiments, plan, out, command)
+    report = write_report(experiments, plan, out, command, jobs=args.jobs)
     print(f"{len(ran)} run(s) done, {len(everything) - len(ran)} already stored; wrote {report}")
     for line in report.read_text().splitlines():
         if line.startswith("**") and ("claims hold" in line or "targets hold" in line):

@@ -20,6 +20,7 @@ symmetric positive definite. Everything is vectorised over robots × targets.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,13 +57,24 @@ class ExtendedKalmanFilter:
         self.sensor = sensor
         self._a = model.transition
         self._q = model.process_noise
+        #: the last prediction, by its input: each tick the planner predicts the league
+        #: estimate that the belief predicts again at the next tick
+        self._last: tuple[TargetEstimate, FloatArray, FloatArray, TargetEstimate] | None = None
 
     def predict(self, est: TargetEstimate) -> TargetEstimate:
-        """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object)."""
+        """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object).
+
+        Estimates are values (nothing changes their arrays in place), so predicting the same
+        estimate again returns the same prediction, computed once."""
+        last = self._last
+        if last is not None and last[0] is est and last[1] is est.mean and last[2] is est.cov:
+            return last[3]
         a = self._a
         mean = est.mean @ a.T
         cov = np.einsum("ij,njk,lk->nil", a, est.cov, a) + self._q
-        return TargetEstimate(mean, _symmetrize(cov))
+        predicted = TargetEstimate(mean, _symmetrize(cov))
+        self._last = (est, est.mean, est.cov, predicted)
+        return predicted
 
     def update(
         self,
@@ -77,9 +89,10 @@ class ExtendedKalmanFilter:
         where robot ``k`` did not measure target ``j`` (skipped). If ``nis_out`` is given, the
         per-(robot, target) NIS of the measurements used are appended to it, robot-major.
         """
+        if nis_out is None:  # the estimate only: no diagnostics to compute
+            return self._linearised(est, robot_positions, measurements)[0]
         res = self.update_detailed(est, robot_positions, measurements)
-        if nis_out is not None:
-            nis_out.extend(res.nis[np.isfinite(res.nis)].tolist())
+        nis_out.extend(res.nis[np.isfinite(res.nis)].tolist())
         return res.estimate
 
     def update_with_nis(
@@ -89,10 +102,10 @@ class ExtendedKalmanFilter:
         res = self.update_detailed(est, robot_positions, measurements)
         return res.estimate, res.nis
 
-    def update_detailed(
+    def _linearised(
         self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
-    ) -> EkfUpdate:
-        """Measurement update with all diagnostics (see :class:`EkfUpdate`)."""
+    ) -> tuple[TargetEstimate, _Linearisation]:
+        """The updated estimate, and what the diagnostics of :meth:`update_detailed` need."""
         n = est.n_targets
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
@@ -128,6 +141,15 @@ class ExtendedKalmanFilter:
         i_kh = np.eye(4) - np.concatenate([f @ info, np.zeros((n, 4, 2))], axis=2)
         joseph = i_kh @ cov @ np.swapaxes(i_kh, 1, 2) + f @ info @ np.swapaxes(f, 1, 2)
         new_cov = _symmetrize(joseph)
+        return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
+
+    def update_detailed(
+        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+    ) -> EkfUpdate:
+        """Measurement update with all diagnostics (see :class:`EkfUpdate`)."""
+        estimate, lin = self._linearised(est, robot_positions, measurements)
+        cov, new_cov = est.cov, estimate.cov
+        hjac, var, valid, innov, rinv, b = lin
 
         # Per-measurement NIS against the prior: S = H P_pp Hᵀ + R.
         s = hjac @ cov[None, :, :2, :2] @ np.swapaxes(hjac, -1, -2)
@@ -142,7 +164,18 @@ class ExtendedKalmanFilter:
         joint = quad - np.einsum("ni,nij,nj->n", b, new_cov[:, :2, :2], b)
         joint = np.where(dof > 0, joint, np.nan)
 
-        return EkfUpdate(TargetEstimate(new_mean, new_cov), nis, joint, dof)
+        return EkfUpdate(estimate, nis, joint, dof)
+
+
+class _Linearisation(NamedTuple):
+    """The linearised measurements of one update (for its diagnostics)."""
+
+    hjac: FloatArray
+    var: FloatArray
+    valid: NDArray[np.bool_]
+    innov: FloatArray
+    rinv: FloatArray
+    b: FloatArray
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:

@@ -53,6 +53,9 @@ def repair_covariances(
     ``fallback`` ``(d, d)`` replaces a matrix with a non-finite entry (default: identity).
     """
     cov = np.array(cov, dtype=float, copy=True)
+    healthy = _surely_healthy(cov)
+    if healthy is not None:
+        return healthy, []
     n, d = cov.shape[0], cov.shape[-1]
     repairs: list[Repair] = []
     finite = np.all(np.isfinite(cov), axis=(1, 2))
@@ -77,6 +80,28 @@ def repair_covariances(
             repairs.append(Repair(j, "asymmetric", float(asym[j]), float(eig[j, 0])))
     repairs.sort(key=lambda r: r.index)
     return cov, repairs
+
+
+def _surely_healthy(cov: FloatArray) -> FloatArray | None:
+    """The symmetrised stack if every matrix is finite, symmetric to ``ASYMMETRY_TOL`` and
+    has all eigenvalues above twice the floor (a Cholesky factorisation of ``P − t I`` exists,
+    ``t = 2 max(EIGEN_FLOOR_RATIO tr P, EIGEN_FLOOR_ABS)`` ≥ twice the floor since
+    ``λmax ≤ tr P``), else None. The common case, decided without an eigen-decomposition;
+    :func:`repair_covariances` gives the same answer (no repair) for it."""
+    if not np.all(np.isfinite(cov)):
+        return None
+    scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)
+    transposed = np.swapaxes(cov, 1, 2)
+    if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
+        return None
+    sym = 0.5 * (cov + transposed)
+    trace = np.trace(sym, axis1=1, axis2=2)
+    shift = 2 * np.maximum(EIGEN_FLOOR_RATIO * trace, EIGEN_FLOOR_ABS)
+    try:
+        np.linalg.cholesky(sym - shift[:, None, None] * np.eye(cov.shape[-1]))
+    except np.linalg.LinAlgError:
+        return None
+    return sym
 
 
 def is_spd(cov: FloatArray) -> bool:

@@ -18,19 +18,21 @@ import pandas as pd
 
 from resilient_tracking import __version__
 from resilient_tracking.experiments import generalization
-from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task, catalog
+from resilient_tracking.experiments.catalog import Experiment, Task, catalog
 from resilient_tracking.experiments.claims import Claim, check
+from resilient_tracking.experiments.report_figures import (
+    FigureJob,
+    draw,
+    figure_jobs,
+    inputs_digest,
+    keep,
+    read_kept,
+    up_to_date,
+)
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
 from resilient_tracking.sim.folders import write_text_atomic
 from resilient_tracking.viz.io import RunData, load_run
-from resilient_tracking.viz.sweeps import (
-    BAND_METRICS,
-    EFFORT_METRIC,
-    plot_bands,
-    plot_scale_boxes,
-    plot_snapshots,
-)
 
 log = logging.getLogger(__name__)
 
@@ -56,51 +58,16 @@ def variant_table(summary: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def _figures(exp: Experiment, runs: dict[str, list[RunData]], summary: pd.DataFrame, out: Path):
-    """Write the experiment's figures into ``out``; returns (caption, path) pairs."""
-    figures: list[tuple[str, Path]] = []
-    first = {label: rs[0] for label, rs in runs.items() if rs}
-    if exp.kind == "scale":
-        figures.append(("time-averaged trace", plot_scale_boxes(summary, out / "boxes-trace.png")))
-        figures.append(
-            ("time-averaged MSE", plot_scale_boxes(summary, out / "boxes-mse.png", "mse"))
-        )
-        largest = max(first, key=lambda k: (first[k].robots.robot.nunique(), k))
-        figures.append(
-            (f"snapshots, {largest}", plot_snapshots(first[largest], out / "snapshots.png"))
-        )
-        return figures
-    for label, run in first.items():
-        figures.append(
-            (
-                f"snapshots, {label}, seed {run.seed}",
-                plot_snapshots(run, out / f"snapshots-{label}.png"),
-            )
-        )
-    metrics = (*BAND_METRICS, *EFFORT_METRIC)
-    if exp.kind == "pair":
-        figures.append(
-            (
-                "MSE, trace and effort, mean ± 1 std over seeds",
-                plot_bands(runs, out / "bands.png", metrics, title=exp.name),
-            )
-        )
-    else:
-        for level in RISK_LEVELS:
-            groups = {k: v for k, v in runs.items() if k.endswith(f"-{level}")}
-            figures.append(
-                (
-                    f"{level}: ours vs SOG, mean ± 1 std over seeds",
-                    plot_bands(
-                        groups, out / f"bands-{level}.png", metrics, title=f"{exp.name}, {level}"
-                    ),
-                )
-            )
-    return figures
+#: An experiment's figures still to draw: (figures folder, inputs digest, figures).
+Pending = tuple[Path, str, list[FigureJob]]
 
 
-def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[str, list[Claim]]:
-    """Summarise, draw and check one experiment; returns its markdown and claims."""
+def experiment_section(
+    exp: Experiment, tasks: list[Task], out: Path, pending: list[Pending] | None = None
+) -> tuple[str, list[Claim]]:
+    """Summarise and check one experiment; returns its markdown and claims. Its figures are
+    drawn at once, or, with ``pending`` given, appended to it for the caller to draw (only
+    when their inputs changed: :mod:`~.report_figures`)."""
     done = [t for t in tasks if is_done(out, t)]
     generated = exp.kind == "generalization"
     header = f"## {exp.name}\n\n{exp.description}." + (
@@ -111,12 +78,21 @@ def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[s
     )
     if not done:
         return header + "\n\nNo finished runs.\n", []
-    runs: dict[str, list[RunData]] = defaultdict(list)
-    for t in done:
-        runs[t.variant.label].append(load_run(run_dir(out, t)))
-    summary = pd.DataFrame([summarise_run(r) for rs in runs.values() for r in rs])
     folder = out / exp.name
     folder.mkdir(parents=True, exist_ok=True)
+    digest = inputs_digest(out, done)
+    kept = read_kept(folder, digest)
+    figures: list[FigureJob] = []
+    if kept is not None and up_to_date(folder / "figures", digest, kept.figures):
+        summary, listing = kept.summary, kept.figures  # the same runs: nothing to read
+    else:
+        runs: dict[str, list[RunData]] = defaultdict(list)
+        for t in done:
+            runs[t.variant.label].append(load_run(run_dir(out, t)))
+        summary = pd.DataFrame([summarise_run(r) for rs in runs.values() for r in rs])
+        figures = [] if generated else figure_jobs(exp, runs, summary, folder / "figures")
+        listing = [(job.caption, job.path) for job in figures]
+        keep(folder, digest, summary, figures)
     summary.to_csv(folder / "summary.csv", index=False)
     claims = check(exp, summary)
     seeds = int(summary["seed"].nunique())
@@ -133,8 +109,14 @@ def experiment_section(exp: Experiment, tasks: list[Task], out: Path) -> tuple[s
             f"- {'✅' if c.holds else '❌'}{mark} {c.statement}: {c.evidence}" for c in claims
         ),
     ]
-    for caption, path in [] if generated else _figures(exp, runs, summary, folder / "figures"):
+    for caption, path in listing:
         parts.append(f"![{caption}]({path.relative_to(out).as_posix()})")
+    if figures and not up_to_date(folder / "figures", digest, listing):
+        entry = (folder / "figures", digest, figures)
+        if pending is None:
+            draw([entry])
+        else:
+            pending.append(entry)
     return "\n\n".join(parts) + "\n", claims
 
 
@@ -188,19 +170,26 @@ def _headline(label: str, claims: list[Claim], short: bool) -> str:
 
 
 def write_report(
-    experiments: list[Experiment], tasks: dict[str, list[Task]], out: Path, command: str
+    experiments: list[Experiment],
+    tasks: dict[str, list[Task]],
+    out: Path,
+    command: str,
+    jobs: int = 1,
 ) -> Path:
-    """Write ``out/report.md`` (atomically) for the experiments' stored runs."""
+    """Write ``out/report.md`` (atomically) for the experiments' stored runs; figures whose
+    inputs changed are drawn over ``jobs`` processes."""
     sections: list[str] = []
     claims: dict[str, list[Claim]] = defaultdict(list)
     short: dict[str, bool] = defaultdict(bool)
+    pending: list[Pending] = []
     for exp in experiments:
-        text, found = experiment_section(exp, tasks[exp.name], out)
+        text, found = experiment_section(exp, tasks[exp.name], out, pending)
         sections.append(text)
         claims[_group(exp)] += found
         short[_group(exp)] |= _group(exp) != "generalization" and _is_short(
             exp, tasks[exp.name], out
         )
+    draw(pending, jobs)
     headlines = [
         _headline(label, claims[group], short[group])
         for group, label in GROUPS
@@ -225,4 +214,3 @@ def write_report(
     path = write_text_atomic(out / "report.md", "\n".join(lines))
     log.info("wrote %s", path)
     return path
-

@@ -17,5 +17,6 @@ A map, in reading order:
   process-wide; ``codegen`` and ``cache`` — compiled code and the LRU cache;
 * ``planner`` — the never-crashing solver ladder; ``safe_action`` — its last rung;
 * ``adaptation``, ``evasion`` — the failure-aware policy's weights and circling;
-* ``sog_problem`` — the SOG baseline's program; ``faults`` — solver-fault injection for tests.
+* ``sog_problem`` — the SOG baseline's program and planner, ``sog_nlp`` — its symbolic problem
+  on the fast path (compiled, SQP ladder); ``faults`` — solver-fault injection for tests.
 """

@@ -17,9 +17,11 @@ of docs/model.md §2 accumulated over a window ``T`` at the zone *estimates*::
 The safety requirement uses ``c = κ f_act T_risk``; the SOG weighs each sensor by its survival
 over the planned step(s), ``φᵒ`` with ``c = κ f_act T_survival`` (see ``docs/paper-map.md``).
 
-The problem is built once per :class:`SogStructure`; every number that changes between steps
-(positions, estimates, zones, ρ, weights) is a parameter. :class:`SogPlanner` solves it with
-the same ladder as the league planner: warm start → cold start → hold position.
+The problem is built once per :class:`SogStructure` and shared process-wide; every number that
+changes between steps (positions, estimates, zones, ρ, weights) is a parameter. It runs on the
+league problem's fast path (:mod:`~.sog_nlp`: SX, compiled derivatives) and :class:`SogPlanner`
+solves it with the league planner's ladder: SQP from the last solution → IPOPT warm → IPOPT
+cold → hold position.
 """
 
 from __future__ import annotations
@@ -33,16 +35,23 @@ import casadi as ca
 import numpy as np
 
 from resilient_tracking.models.sensor import MeasurementModel, RangeBearingSensor
-from resilient_tracking.planning.pieces import trace_of_inverse
+from resilient_tracking.planning.compiled_call import BufferedCall, quiet_stdout
+from resilient_tracking.planning.nlp_cache import count_solver_build
 from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
-from resilient_tracking.planning.solver_options import IPOPT_OPTIONS
+from resilient_tracking.planning.sog_nlp import (
+    ZONE_COLUMNS,
+    phi_expr,
+    shared_sog_nlp,
+)
+from resilient_tracking.planning.solver_options import (
+    COMMON_OPTIONS,
+    IPOPT_OPTIONS,
+    METHODS,
+    SQP_OPTIONS,
+    ProblemOptions,
+)
 
 log = logging.getLogger(__name__)
-
-#: Columns of a zone row: mu(2), Σ⁻¹ xx/xy/yy, pdf normaliser 1/(2π√det Σ).
-ZONE_COLUMNS = 6
-#: Scalars: rho1, rho2, w_effort, w_track, w_risk, c of the requirement, c of the SOG.
-SCALARS = 7
 
 
 def zone_rows(means: list[np.ndarray], covs: list[np.ndarray]) -> np.ndarray:
@@ -81,22 +90,12 @@ def failure_likelihood(positions: np.ndarray, zones: np.ndarray, scale: float) -
     return np.asarray(-np.expm1(-scale * density), dtype=float)
 
 
-def _phi_expr(x: Any, zones: Any, scale: Any, n_zones: int) -> Any:
-    density = 0
-    for zl in range(n_zones):
-        z = zones[:, zl]
-        dx, dy = x[0] - z[0], x[1] - z[1]
-        m2 = z[2] * dx * dx + 2 * z[3] * dx * dy + z[4] * dy * dy
-        density = density + z[5] * ca.exp(-0.5 * m2)
-    return 1 - ca.exp(-scale * density)
-
-
 def likelihood_function(n_zones: int) -> ca.Function:
     """``(x (2,), zones (6, L), c) → φ``: the failure likelihood exactly as the NLP builds it."""
     x = ca.MX.sym("x", 2)
     zones = ca.MX.sym("zones", ZONE_COLUMNS, n_zones)
     scale = ca.MX.sym("c")
-    phi = _phi_expr(x, zones, scale, n_zones)
+    phi = phi_expr(x, zones, scale, n_zones)
     return ca.Function("sog_likelihood", [x, zones, scale], [phi])
 
 
@@ -177,53 +176,55 @@ class SogInputs:
 
 
 class SogProblem:
-    """A CasADi NLP for one :class:`SogStructure`; solve with :meth:`solve`."""
+    """The SOG program of one :class:`SogStructure` ready to solve with :meth:`solve`: the
+    shared symbolic problem (:class:`~.sog_nlp.SogNLP`) with this planner's own solvers
+    (qpOASES keeps state between solves, so solvers are never shared between episodes)."""
 
-    def __init__(self, structure: SogStructure, solver: str = "ipopt"):
-        self.structure = s = structure
-        n, big_n, nz = s.n_robots, s.n_targets, s.n_zones
-        u = ca.MX.sym("u", 2, n)
-        d1 = ca.MX.sym("delta1", big_n)
-        d2 = ca.MX.sym("delta2", s.n_risk_slacks)
-        x0 = ca.MX.sym("x", 2, n)
-        sense = ca.MX.sym("s", n)
-        targets = ca.MX.sym("targets", 2, big_n)
-        prior = ca.MX.sym("prior", 3, big_n)
-        sensor = ca.MX.sym("sensor", s.sensor_model.N_PARAMETERS)
-        dt = ca.MX.sym("dt")
-        zones = ca.MX.sym("zones", ZONE_COLUMNS, nz)
-        k = ca.MX.sym("scalars", SCALARS)
-        rho1, rho2, w_e, w_t, w_r, c_risk, c_survival = (k[m] for m in range(SCALARS))
-        self._param_parts = [x0, sense, targets, prior, sensor, dt, zones, k]
+    def __init__(self, structure: SogStructure, options: ProblemOptions | None = None):
+        self.structure = structure
+        self.options = options or ProblemOptions()
+        self.nlp = shared_sog_nlp(structure)
+        self.n_constraints = self.nlp.n_constraints
+        self._calls: dict[str, BufferedCall] = {}
+        self._lbg = np.zeros(self.n_constraints)
 
-        xp = x0 + u * dt
-        phi = [_phi_expr(xp[:, i], zones, c_risk, nz) for i in range(n)]
-        survive = ca.vertcat(
-            *[sense[i] * (1 - _phi_expr(xp[:, i], zones, c_survival, nz)) for i in range(n)]
-        )
-        g = []
-        for j in range(big_n):
-            a, b, c = _sog_entries(
-                xp, survive, targets[:, j], prior[:, j], sensor, s.sensor_model
-            )
-            trace = trace_of_inverse(a, b, c)
-            g.append(rho1 + d1[j] - trace)
-        if nz:
-            g += [rho2 + d2[i] - phi[i] for i in range(n)]
-        cost = w_e * ca.sumsqr(u) + w_t * ca.sum1(d1)
-        if nz:
-            cost += w_r * ca.sum1(d2)
-        self.n_constraints = len(g)
-        nlp = {
-            "x": ca.veccat(u, d1, d2),
-            "p": ca.veccat(*self._param_parts),
-            "f": cost,
-            "g": ca.vertcat(*g),
-        }
-        opts: dict[str, Any] = {"print_time": False, "error_on_fail": False}
-        if solver == "ipopt":
-            opts["ipopt"] = dict(IPOPT_OPTIONS)  # the league planner's robust rungs' settings
-        self.solver = ca.nlpsol(f"sog_{n}x{big_n}_{nz}z", solver, nlp, opts)
+    def _call(self, method: str) -> BufferedCall:
+        if method not in self._calls:
+            self._calls[method] = self._new_call(method)
+        return self._calls[method]
+
+    def compiled(self, method: str) -> bool:
+        """Whether the solver of ``method`` runs on compiled code."""
+        return self._call(method).compiled
+
+    def _new_call(self, method: str) -> BufferedCall:
+        if method not in METHODS:
+            raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
+        functions = self.nlp.roles(method)
+        job = self.nlp.job(method) if self.options.codegen else None
+        compiled = job is not None and job.ready()
+        if compiled and job is not None:
+            try:
+                functions = job.load()
+            except RuntimeError as err:  # a broken library: stay on the virtual machine
+                log.warning("loading %s failed: %s", job.library, err)
+                job.failed, compiled = True, False
+        s = self.structure
+        name = f"sog_{s.n_robots}x{s.n_targets}_{s.n_zones}z_{method}"
+        opts: dict[str, Any] = {**COMMON_OPTIONS, **functions}
+        if method == "ipopt":
+            opts["ipopt"] = {**IPOPT_OPTIONS, **self.options.ipopt}
+            solver = ca.nlpsol(name, "ipopt", self.nlp.nlp, opts)
+        else:
+            opts.update(SQP_OPTIONS)
+            opts.update(self.options.sqp)
+            opts.update(qpsol=self.options.qpsol, qpsol_options=self.options.qpsol_options())
+            with quiet_stdout():  # qpOASES prints a licence banner when its memory is set up
+                solver = ca.nlpsol(name, "sqpmethod", self.nlp.nlp, opts)
+        count_solver_build()
+        call = BufferedCall(solver, self.nlp.n_vars, self.nlp.n_params, self.n_constraints)
+        call.compiled = compiled
+        return call
 
     def pack_params(self, q: SogInputs) -> np.ndarray:
         prior = np.stack(
@@ -263,36 +264,37 @@ class SogProblem:
     def solve(
         self, q: SogInputs, warm: dict[str, np.ndarray] | None = None, method: str | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Solve once with IPOPT (``method`` is accepted for the ladder; only IPOPT is built);
-        returns (solution with x, lam_x, lam_g, f; solver stats)."""
+        """Solve once with ``method`` (``"sqp"`` or ``"ipopt"``, default IPOPT) from ``warm``
+        (a previous solution: primal and dual start) or from zero; returns (solution with x,
+        lam_x, lam_g, f; solver stats)."""
         lbx, ubx = self.bounds(q)
-        args: dict[str, Any] = {
-            "p": self.pack_params(q),
-            "lbx": lbx,
-            "ubx": ubx,
-            "lbg": np.zeros(self.n_constraints),
-            "ubg": np.full(self.n_constraints, np.inf),
-        }
+        n_vars = self.structure.n_vars
         if warm is not None:
-            args["x0"] = np.clip(warm["x"], lbx, ubx)
-            args["lam_x0"] = warm["lam_x"]
-            args["lam_g0"] = warm["lam_g"]
+            x0, lam_x0, lam_g0 = np.clip(warm["x"], lbx, ubx), warm["lam_x"], warm["lam_g"]
         else:
-            args["x0"] = np.clip(np.zeros(self.structure.n_vars), lbx, ubx)
-        out = self.solver(**args)
-        solution = {k: np.asarray(out[k]).ravel() for k in ("x", "lam_x", "lam_g", "f")}
-        return solution, dict(self.solver.stats())
+            x0 = np.clip(np.zeros(n_vars), lbx, ubx)
+            lam_x0, lam_g0 = np.zeros(n_vars), np.zeros(self.n_constraints)
+        call = self._call(method or "ipopt")
+        solution = call(x0, self.pack_params(q), lbx, ubx, lam_x0, lam_g0, self._lbg)
+        return solution, call.stats()
 
 
 class SogPlanner(SolverLadder):
-    """The planner's never-crashing ladder (IPOPT warm → cold → hold position) over
-    :class:`SogProblem`; one problem per structure, a warm start per league membership."""
+    """The league planner's never-crashing ladder over :class:`SogProblem` (SQP → IPOPT warm
+    → IPOPT cold → hold position; ``solver="ipopt"`` starts at IPOPT); one problem per
+    structure, a warm start per league membership."""
 
-    def __init__(self, fault_hook: FaultHook | None = None):
-        super().__init__("ipopt", fault_hook)
+    def __init__(
+        self,
+        fault_hook: FaultHook | None = None,
+        solver: str = "ladder",
+        options: ProblemOptions | dict[str, Any] | None = None,
+    ):
+        super().__init__(solver, fault_hook)
+        self.options = ProblemOptions.of(options)
 
     def build(self, structure: SogStructure) -> SogProblem:
-        return SogProblem(structure)
+        return SogProblem(structure, self.options)
 
     def plan_sog(self, members: tuple[int, ...], q: SogInputs) -> PlanResult:
         structure = SogStructure(

@@ -174,6 +174,7 @@ class EpisodeRecorder:
         est = belief.team_estimate()
         plans = out.decision.plans
         self.team.append(
+            1,
             step=k,
             time=obs.time,
             mse=mse(est.mean[:, :2], truth[:, :2]),
@@ -186,11 +187,10 @@ class EpisodeRecorder:
             n_solver_failures=sum(not p.success for p in plans),
             solver_iterations=sum(p.iterations for p in plans),
         )
-        self.timing.append(step=k, plan_ms=out.decision.plan_ms)
+        self.timing.append(1, step=k, plan_ms=out.decision.plan_ms)
         n = obs.n_robots
-        modes = np.empty(n, dtype=object)
-        modes[:] = out.decision.modes
         self.robots.append(
+            n,
             step=k,
             robot=np.arange(n),
             x=obs.positions[:, 0],
@@ -200,10 +200,11 @@ class EpisodeRecorder:
             sensing_ok=obs.sensing_ok,
             comm_ok=obs.comm_ok,
             league=belief.league_of,
-            mode=modes,
+            mode=out.decision.modes,
         )
         var = np.diagonal(est.cov, axis1=1, axis2=2)
         self.targets.append(
+            len(truth),
             step=k,
             target=np.arange(len(truth)),
             x=truth[:, 0],

@@ -76,18 +76,26 @@ class ColumnTable:
     def __len__(self) -> int:
         return self._rows
 
-    def append(self, **values: Any) -> None:
-        """Append rows: every column gets an array (or a scalar, broadcast) of the same length."""
-        blocks = {name: np.asarray(values[name]) for name in self._columns}
-        count = max((b.shape[0] for b in blocks.values() if b.ndim), default=1)
-        end = self._rows + count
-        for name, column in self._columns.items():
-            if end > len(column):
-                grown = np.empty(max(end, 2 * len(column)), dtype=column.dtype)
-                grown[: self._rows] = column[: self._rows]
-                self._columns[name] = column = grown
-            column[self._rows : end] = blocks[name]
+    def append(self, rows: int | None = None, **values: Any) -> None:
+        """Append rows: every column gets an array (or a scalar, broadcast) of the same length,
+        ``rows`` of them (when not given: the longest array's length, else one)."""
+        if rows is None:
+            lengths = [np.shape(v)[0] for v in values.values() if np.ndim(v)]
+            rows = max(lengths, default=1)
+        start, end = self._rows, self._rows + rows
+        columns = self._columns
+        if end > len(next(iter(columns.values()))):
+            self._grow(end)
+        for name, column in columns.items():
+            column[start:end] = values[name]  # NumPy converts and broadcasts in place
         self._rows = end
+
+    def _grow(self, rows: int) -> None:
+        """Double the columns (at least to ``rows``), keeping the rows written so far."""
+        for name, column in self._columns.items():
+            grown = np.empty(max(rows, 2 * len(column)), dtype=column.dtype)
+            grown[: self._rows] = column[: self._rows]
+            self._columns[name] = grown
 
     def frame(self) -> pd.DataFrame:
         return pd.DataFrame({name: c[: self._rows].copy() for name, c in self._columns.items()})

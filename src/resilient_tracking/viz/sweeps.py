@@ -30,10 +30,12 @@ SWEEP_DPI = 100
 POLICY_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def _save(fig: Figure, path: Path, tight: bool = True) -> Path:
+    """Write ``fig``; ``tight=False`` for figures laid out with fixed margins (no second
+    drawing pass to measure a tight bounding box)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=SWEEP_DPI, bbox_inches="tight")
+    fig.savefig(path, dpi=SWEEP_DPI, bbox_inches="tight" if tight else None)
     log.info("wrote %s", path)
     return path
 
@@ -48,7 +50,13 @@ def plot_snapshots(run: RunData, path: Path, n: int = 6) -> Path:
     steps = snapshot_steps(run.last_step, n)
     cols = 3
     rows = (len(steps) + cols - 1) // cols
-    fig = Figure(figsize=(5.2 * cols, 3.9 * rows + 0.8), layout="constrained")
+    height = 3.9 * rows + 0.8
+    # fixed margins, not constrained layout: laying out 6 maps' ticks and labels cost
+    # seconds per figure, most of a stored report's re-run (docs/performance.md)
+    fig = Figure(figsize=(5.2 * cols, height))
+    fig.subplots_adjust(
+        left=0.05, right=0.99, top=1 - 0.55 / height, bottom=1.05 / height, wspace=0.18, hspace=0.3
+    )
     FigureCanvasAgg(fig)
     axes = np.atleast_1d(fig.subplots(rows, cols)).ravel()
     for ax, step in zip(axes, steps, strict=False):
@@ -58,11 +66,9 @@ def plot_snapshots(run: RunData, path: Path, n: int = 6) -> Path:
         ax.set_visible(False)
     handles, labels = axes[0].get_legend_handles_labels()
     unique = dict(zip(labels, handles, strict=False))
-    fig.legend(
-        unique.values(), unique.keys(), loc="outside lower center", ncols=5, fontsize="small"
-    )
+    fig.legend(unique.values(), unique.keys(), loc="lower center", ncols=5, fontsize="small")
     fig.suptitle(run.title(), fontsize="medium")
-    return _save(fig, path)
+    return _save(fig, path, tight=False)
 
 
 def _stack(runs: Sequence[RunData], column: str) -> tuple[np.ndarray, np.ndarray]:
@@ -80,7 +86,9 @@ def plot_bands(
     title: str = "",
 ) -> Path:
     """Mean ± 1 std over seeds against time, one curve per group, one panel per metric."""
-    fig = Figure(figsize=(8.5, 2.9 * len(metrics) + 0.6), layout="constrained")
+    height = 2.9 * len(metrics) + 0.6
+    fig = Figure(figsize=(8.5, height))  # fixed margins: see plot_snapshots
+    fig.subplots_adjust(left=0.1, right=0.98, top=1 - 0.5 / height, bottom=0.5 / height)
     FigureCanvasAgg(fig)
     axes = np.atleast_1d(fig.subplots(len(metrics), 1, sharex=True))
     for ax, (column, label) in zip(axes, metrics, strict=True):
@@ -106,7 +114,7 @@ def plot_bands(
     axes[-1].set_xlabel("time [s]")
     if title:
         fig.suptitle(title, fontsize="medium")
-    return _save(fig, path)
+    return _save(fig, path, tight=False)
 
 
 def plot_scale_boxes(summary: pd.DataFrame, path: Path, metric: str = "trace") -> Path:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,10 +17,14 @@ if TYPE_CHECKING:
 
 def gaussian_pdf(x: np.ndarray, mu: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     """Density of ``N(mu, sigma)`` at the rows of ``x``."""
+    return _pdf(x, mu, np.linalg.inv(sigma), 2 * math.pi * math.sqrt(np.linalg.det(sigma)))
+
+
+def _pdf(x: np.ndarray, mu: np.ndarray, inv: np.ndarray, norm: float) -> np.ndarray:
+    """:func:`gaussian_pdf` with ``Σ⁻¹`` and ``2π √det Σ`` given."""
     diff = np.atleast_2d(x) - mu
-    inv = np.linalg.inv(sigma)
     m2 = np.einsum("ni,ij,nj->n", diff, inv, diff)
-    return np.exp(-0.5 * m2) / (2 * math.pi * math.sqrt(np.linalg.det(sigma)))
+    return np.exp(-0.5 * m2) / norm
 
 
 @HAZARDS.register("gaussian")
@@ -34,6 +38,13 @@ class GaussianHazardModel(HazardModel):
     sigma: np.ndarray
     f_act: float
     kappa: float
+    _inv: np.ndarray = field(init=False, repr=False, compare=False)
+    _norm: float = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # the density's constants, once (the world asks every step)
+        object.__setattr__(self, "_inv", np.linalg.inv(self.sigma))
+        object.__setattr__(self, "_norm", 2 * math.pi * math.sqrt(np.linalg.det(self.sigma)))
 
     @classmethod
     def from_zone(cls, spec: GaussianHazard, zone: TrueZone) -> GaussianHazardModel:
@@ -42,7 +53,8 @@ class GaussianHazardModel(HazardModel):
 
     def probability(self, positions: np.ndarray, step: int, dt: float) -> np.ndarray:
         """Attack probability at each position (the same at every step)."""
-        rate = self.kappa * self.f_act * dt * gaussian_pdf(positions, self.mu, self.sigma)
+        density = _pdf(positions, self.mu, self._inv, self._norm)
+        rate = self.kappa * self.f_act * dt * density
         return 1.0 - np.exp(-rate)
 
 

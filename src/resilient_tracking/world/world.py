@@ -78,6 +78,9 @@ class World:
         self._pending_attacks: list[Attack] = []
         self._pending_recoveries: list[tuple[int, FailureKind]] = []
         self._comm_zones = [z for z in self.zones if z.kind == "comm"]
+        # the comm zones' true centres and δ2 never change: arrays once
+        self._jammer_centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
+        self._jammer_deltas = np.array([z.size for z in self._comm_zones], dtype=float)
         self.links = self._compute_links()
 
     # ------------------------------------------------------------------ read-only truth
@@ -212,9 +215,7 @@ class World:
     def _compute_links(self) -> np.ndarray:
         """Links now, and jamming isolation: a robot whose every possible link is jammed."""
         positions = self.robot_positions
-        centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
-        deltas = np.array([z.size for z in self._comm_zones], dtype=float)
-        jammed = jammed_by(positions, centers, deltas)
+        jammed = jammed_by(positions, self._jammer_centers, self._jammer_deltas)
         radio = np.array(
             [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
         )
@@ -222,9 +223,11 @@ class World:
             positions, radio, np.zeros((0,) + jammed.shape[1:], bool), self.scenario.comm_range
         )
         links = possible & ~jammed.any(axis=0) if jammed.size else possible
+        any_possible = [bool(v) for v in np.any(possible, axis=1)]
+        any_link = [bool(v) for v in np.any(links, axis=1)]
         for robot in range(self.n_robots):
             failure = self.failures["comm"][robot]
-            isolated = bool(possible[robot].any()) and not bool(links[robot].any())
+            isolated = any_possible[robot] and not any_link[robot]
             if isolated and failure is None:
                 worst = int(np.argmax(jammed[:, robot, :].sum(axis=1)))
                 self._fail(robot, self._comm_zones[worst], "jamming")
