@@ -233,3 +233,20 @@ def test_base_package_does_not_import_dds() -> None:
         "assert 'cyclonedds' not in sys.modules and 'rosbags' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_a_free_running_node_builds_in_the_background_and_warm_up_fills_the_cache(
+    domain, monkeypatch
+):
+    from resilient_tracking.planning import nlp_cache as cache_module
+    from resilient_tracking.planning.cache import LruCache
+
+    monkeypatch.setattr(cache_module, "_NLPS", LruCache(cache_module.NLP_BUDGET))  # empty
+    scenario = shipped("sensing-temp").with_overrides(steps=40)
+    free = NodeSettings.for_scenario(scenario, domain_id=domain)
+    node = TrackerNode(scenario, 1, "failure_aware", free)
+    assert node.planner is not None and node.planner.background_builds
+    node.warm_up()  # the mission once in simulation: its structures are built now
+    assert cache_module.nlp_cache().builds > 0
+    locked = dataclasses.replace(free, lockstep=True)
+    assert not TrackerNode(scenario, 1, "failure_aware", locked).planner.background_builds

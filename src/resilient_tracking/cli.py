@@ -345,6 +345,10 @@ def cmd_node(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 1
     node = TrackerNode(scenario, seed, policy, settings, bag=bag)  # type: ignore[arg-type]
+    if args.warm_up:
+        if not args.quiet:
+            print("warming up: running the scenario once in simulation to build its problems")
+        node.warm_up()
     stop = _stop_on_signals()
     try:
         with tqdm(total=scenario.steps, desc="node", unit="step", disable=args.quiet) as bar:
@@ -413,6 +417,11 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
             p.add_argument("--out", default=None, help="run folder")
             p.add_argument("--policy", default=None, help="a policy name (default: the file's)")
             p.add_argument("--bag", default=None, metavar="FILE", help="also write a ROS 2 bag")
+            p.add_argument(
+                "--warm-up",
+                action="store_true",
+                help="run the scenario once in simulation first, to build its league problems",
+            )
         else:
             p.add_argument("--mode", choices=("sim", "mocap"), default="sim")
 
