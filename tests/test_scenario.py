@@ -601,7 +601,7 @@ def test_problems_from_a_file_carry_its_path(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     assert info.value.source == str(path)
-    assert info.value.problems == ["dt: Input should be greater than 0 (got -0.5)"]
+    assert info.value.problems == ["dt: Input should be greater than or equal to 0.001 (got -0.5)"]
 
 
 # ------------------------------------------------------------------------------ property

@@ -44,6 +44,9 @@ MAX_ROBOTS_X_TARGETS = 1024
 MAX_ZONES = 32
 MAX_STEPS = 100_000
 MAX_DT = 10.0
+#: at least 1 ms: ``dt`` divides in the velocity bounds and the route pull, and a subnormal one
+#: overflows them
+MIN_DT = 1e-3
 #: Recorded rows (``steps × (robots + targets)``) an episode may hold in memory.
 MAX_RECORDED_ROWS = 5_000_000
 
@@ -784,7 +787,7 @@ class Scenario(Strict):
     )
     #: at most 10 s: beyond it one step moves targets out of any sensor's reach
     dt: float = Field(
-        0.1, gt=0, le=MAX_DT, description="Time step.", json_schema_extra={"unit": "s"}
+        0.1, ge=MIN_DT, le=MAX_DT, description="Time step.", json_schema_extra={"unit": "s"}
     )
     steps: int = Field(
         300,
