@@ -86,11 +86,6 @@ def test_every_top_level_name_and_its_members_have_a_docstring():
     assert not missing, missing
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known gap: about a hundred public definitions below the top level (cli, planning, "
-    "ros2, viz internals...) still have no docstring",
-)
 def test_every_public_definition_has_a_docstring():
     missing = _undocumented()
     assert not missing, f"{len(missing)} public definitions without a docstring:\n" + "\n".join(

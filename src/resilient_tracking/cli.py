@@ -53,6 +53,9 @@ def _load(path: str) -> Scenario | None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
+    """``rtrack validate``: check each scenario file or shipped name and print a one-line summary of
+    the valid ones; exit status 1 if any is invalid (the problems are printed, each with its
+    field)."""
     status = 0
     for path in args.scenario:
         scenario = _load(path)
@@ -81,6 +84,9 @@ def _policy_problem(name: str | None) -> str | None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    """``rtrack run``: run one episode and write its run folder (tables, manifest and, unless
+    ``--no-figures``, figures); exit status 0 when written, 1 for bad input or a refused ``--out``,
+    2 when the run failed (nothing is written)."""
     scenario = _load(args.scenario)
     if scenario is None:
         return 1
@@ -163,6 +169,8 @@ def _run_into(
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
+    """``rtrack reproduce``: run the paper's experiments (docs/model.md §8) as a resumable sweep
+    into ``--out`` and write ``report.md``, printing how many of the claims hold."""
     from resilient_tracking.experiments.catalog import select, tasks
     from resilient_tracking.experiments.report import write_report
     from resilient_tracking.experiments.sweep import run_sweep
@@ -206,6 +214,8 @@ def _not_a_folder(out: Path) -> bool:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    """``rtrack compare``: run every ``--policies`` entry on every scenario for seeds 1..N as a
+    resumable sweep and write ``OUT/report.md`` (docs/compare.md)."""
     from resilient_tracking.experiments.comparison import (
         make_study,
         parse_override,
@@ -240,6 +250,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_animate(args: argparse.Namespace) -> int:
+    """``rtrack animate``: write a GIF of a run folder, and an MP4 when ffmpeg is found."""
     from resilient_tracking.viz.animate import animate_run, ffmpeg_path
 
     if _out_of_range("--frames", args.frames, 2, MAX_FRAMES):
@@ -322,6 +333,8 @@ def _stop_on_signals() -> object:
 
 
 def cmd_node(args: argparse.Namespace) -> int:
+    """``rtrack node``: run the team as a ROS 2-compatible tracker node (docs/robots.md) and write
+    its run folder; exit status 0 when every step ran, 3 when it stopped early, 1 for bad input."""
     setup = _ros2_node_setup(args)
     if setup is None:
         return 1
@@ -366,6 +379,8 @@ def cmd_node(args: argparse.Namespace) -> int:
 
 
 def cmd_world(args: argparse.Namespace) -> int:
+    """``rtrack world``: publish a simulated (``--mode sim``) or motion-capture world over ROS 2 for
+    ``rtrack node``; exit status 0 when every step ran, 3 when it stopped early, 1 on an error."""
     setup = _ros2_node_setup(args)
     if setup is None:
         return 1
@@ -439,6 +454,7 @@ def _add_sweep_options(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``rtrack`` argument parser with all its subcommands."""
     parser = argparse.ArgumentParser(
         prog="rtrack", description="Failure-aware multi-robot target tracking."
     )
@@ -525,6 +541,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``rtrack``: parse ``argv`` (default: the command line), set up logging and run
+    the subcommand; returns its exit status (130 after Ctrl-C, 143 after SIGTERM, finished runs
+    kept)."""
     args = build_parser().parse_args(argv)
     if getattr(args, "func", None) is cmd_compare:
         args.argv = argv

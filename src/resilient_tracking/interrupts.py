@@ -41,6 +41,7 @@ def check() -> None:
 
 
 def received() -> bool:
+    """Whether SIGINT or SIGTERM came while :func:`catching` was active."""
     return bool(_RECEIVED)
 
 

@@ -89,14 +89,17 @@ class Workspace(Strict):
     )
 
     def contains(self, p: Vec2) -> bool:
+        """Whether point ``p`` (m) lies in the box, edges included."""
         return self.xmin <= p[0] <= self.xmax and self.ymin <= p[1] <= self.ymax
 
     @property
     def lower(self) -> np.ndarray:
+        """The lower corner ``[xmin, ymin]`` (m)."""
         return np.array([self.xmin, self.ymin])
 
     @property
     def upper(self) -> np.ndarray:
+        """The upper corner ``[xmax, ymax]`` (m)."""
         return np.array([self.xmax, self.ymax])
 
 
@@ -104,6 +107,8 @@ class Workspace(Strict):
 
 
 class RobotSpec(Strict):
+    """One robot: its start position and velocity bound (paper eq. 3)."""
+
     start: Vec2 = Field(
         ..., description="Initial position, inside the workspace.", json_schema_extra={"unit": "m"}
     )
@@ -217,6 +222,8 @@ TargetMotion = Annotated[
 
 
 class TargetSpec(Strict):
+    """One target: its true start position and scripted motion."""
+
     start: Vec2 = Field(
         ...,
         description="Initial true position, inside the workspace.",
@@ -245,6 +252,9 @@ class SensorChannel(Strict):
 
 
 class SensorSpec(Strict):
+    """The robots' range-bearing sensor (paper eq. 2): noise per channel and an optional maximum
+    range."""
+
     range: SensorChannel = Field(SensorChannel(), description="Noise of the range measurement.")
     bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
     max_range: PositiveFloat | None = Field(
@@ -347,6 +357,10 @@ def _check_covariance(value: Matrix2) -> Matrix2:
 
 
 class ZoneBase(Strict):
+    """Fields every danger zone has: the prior ``N(μ, Σ)`` its true center is drawn from each
+    episode (paper eq. 4), how attacks are drawn, what they do and where a temporary failure
+    ends."""
+
     name: str | None = Field(None, description="Label for plots and logs.")
     mu: Vec2 = Field(
         ..., description="Prior mean μ of the zone center.", json_schema_extra={"unit": "m"}
@@ -383,6 +397,9 @@ class ZoneBase(Strict):
 
 
 class SensingZone(ZoneBase):
+    """A sensing danger zone (paper eq. 4): a disk of radius ``r`` around its true center; an attack
+    disables the robot's sensor."""
+
     kind: Literal["sensing"] = Field(description="An attack disables the robot's sensor.")
     radius: PositiveFloat = Field(
         ...,
@@ -392,6 +409,9 @@ class SensingZone(ZoneBase):
 
 
 class CommZone(ZoneBase):
+    """A comm danger zone (paper eq. 5): an attack disables the robot's radio, and its jammer cuts a
+    link when a robot is within ``δ2`` times the link length of the true center."""
+
     kind: Literal["comm"] = Field(
         description="An attack disables the robot's radio; the zone also jams links."
     )

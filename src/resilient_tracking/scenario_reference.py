@@ -119,6 +119,8 @@ def _yaml(value: Any) -> str:
 
 
 def default_text(field: FieldInfo) -> str:
+    """A field's default as the reference shows it: ``**required**``, a YAML value, or "see below"
+    for a mapping whose default is all its own defaults."""
     if field.is_required():
         return "**required**"
     if field.default_factory is not None:
@@ -134,6 +136,8 @@ def default_text(field: FieldInfo) -> str:
 
 
 def range_text(field: FieldInfo) -> str:
+    """A field's valid range in words (bounds, list lengths, the coordinate limit); empty when it
+    has none."""
     parts = []
     if get_origin(_strip(field.annotation)) is tuple:
         parts.append(f"each number within ±{MAX_COORDINATE:g}")
@@ -149,6 +153,7 @@ def range_text(field: FieldInfo) -> str:
 
 
 def unit_text(field: FieldInfo) -> str:
+    """A field's unit (its ``unit`` schema extra), else ``–``."""
     extra = field.json_schema_extra
     return str(extra.get("unit", "–")) if isinstance(extra, dict) else "–"
 
@@ -197,6 +202,7 @@ def _anchor(path: str, variant: str) -> str:
 
 
 def render() -> str:
+    """The whole reference page, ``docs/scenario-reference.md``, as Markdown."""
     parts = [
         "# Scenario reference",
         "",

@@ -62,12 +62,15 @@ class BoundedLoader(yaml.SafeLoader):
     """PyYAML's safe loader with the alias budget, duplicate-key check and YAML 1.2 floats."""
 
     def get_single_node(self) -> Node | None:
+        """Compose the document, then refuse it if its aliases expand it by more than
+        :data:`MAX_ALIAS_NODES` nodes or refer to themselves."""
         node = super().get_single_node()
         if node is not None:
             _check_expansion(node)
         return node
 
     def construct_mapping(self, node: MappingNode, deep: bool = False) -> dict[Any, Any]:
+        """PyYAML's mapping, after refusing a key given twice (the error names both lines)."""
         if isinstance(node, MappingNode):
             _check_duplicates(self, node)
         return super().construct_mapping(node, deep=deep)

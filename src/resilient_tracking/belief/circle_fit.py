@@ -82,6 +82,8 @@ class CircleGates:
     max_radius: float = 5.0
 
     def accept(self, fit: CircleFit) -> bool:
+        """Whether a fit passes every gate: enough samples, enough arc, a small residual and a
+        radius within bounds (Alg. 3)."""
         return (
             fit.n_samples >= self.min_samples
             and fit.arc >= self.min_arc

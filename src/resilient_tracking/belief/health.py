@@ -38,6 +38,8 @@ class Repair:
     min_eigenvalue: float
 
     def describe(self) -> str:
+        """One line for the log: the target, what was wrong, the asymmetry and the smallest
+        eigenvalue."""
         return (
             f"target {self.index}: {self.problem} "
             f"(asymmetry {self.asymmetry:.3g}, min eigenvalue {self.min_eigenvalue:.3g})"

@@ -41,6 +41,8 @@ class ZoneEstimate:
 
     @classmethod
     def from_clue(cls, clue: ZoneClue, step: int) -> ZoneEstimate:
+        """The estimate an attack clue gives: the zone's prior mean and covariance, its size and
+        persistence, learned at ``step``."""
         return cls(
             key=f"zone{clue.zone_id}",
             kind=clue.kind,
@@ -54,6 +56,8 @@ class ZoneEstimate:
         )
 
     def mahalanobis(self, other: ZoneEstimate) -> float:
+        """Mahalanobis distance between the two means under the summed covariances, ``√(dᵀ (Σ₁ +
+        Σ₂)⁻¹ d)``."""
         d = self.mean - other.mean
         return float(np.sqrt(d @ np.linalg.solve(self.cov + other.cov, d)))
 
@@ -71,6 +75,8 @@ class KnowledgeBase:
         return key in self.zones
 
     def copy(self) -> KnowledgeBase:
+        """A new knowledge base holding the same estimates (the estimates are immutable and
+        shared)."""
         return KnowledgeBase(self.zones)
 
     def of_kind(self, kind: str) -> list[ZoneEstimate]:

@@ -71,6 +71,7 @@ class Experiment:
     program: str = ""
 
     def seed_list(self, n: int | None = None) -> list[int]:
+        """The seeds ``1..n`` (default ``n``: the experiment's own number of seeds)."""
         return list(range(1, (n or self.seeds) + 1))
 
 
@@ -85,6 +86,7 @@ class Task:
 
     @property
     def run_id(self) -> str:
+        """The run's path under ``OUT/runs``: ``experiment/variant/seed-NNN``."""
         return f"{self.experiment}/{self.variant.label}/seed-{self.seed:03d}"
 
     @property

@@ -28,6 +28,7 @@ class Proportion:
 
     @property
     def rate(self) -> float:
+        """``k / n``; NaN when ``n`` is 0."""
         return self.k / self.n if self.n else float("nan")
 
     def __str__(self) -> str:

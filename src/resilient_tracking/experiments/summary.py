@@ -57,6 +57,8 @@ def robots_lost(events: pd.DataFrame) -> int:
 
 
 def summarise_run(run: RunData) -> dict[str, Any]:
+    """The summary row of one run: its experiment, variant, policy, seed and tags, team size, and
+    metrics (mean and final trace, MSE, failures, attacks, solver fallbacks, stragglers...)."""
     team, events = run.team, run.events
     attacks = attack_table(run)
     n_robots = int(run.robots["robot"].nunique())

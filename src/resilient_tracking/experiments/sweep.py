@@ -33,6 +33,7 @@ PARTIAL = (".*.partial", ".*.old")
 
 
 def run_dir(out: Path, task: Task) -> Path:
+    """The folder a task's run is stored in: ``out/runs/<experiment>/<variant>/seed-NNN``."""
     return Path(out) / "runs" / task.run_id
 
 

@@ -114,6 +114,8 @@ class RangeBearingSensor(MeasurementModel):
 
     @property
     def parameters(self) -> FloatArray:
+        """``[range_peak, range_shape, bearing_peak, bearing_shape]``, the numbers the planners'
+        programs take (paper eq. 2)."""
         return np.array([self.range_peak, self.range_shape, self.bearing_peak, self.bearing_shape])
 
     def predict(self, robot: FloatArray, target: FloatArray) -> FloatArray:
@@ -147,6 +149,8 @@ class RangeBearingSensor(MeasurementModel):
         return np.stack([row_range, row_bearing], axis=-2)
 
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
+        """Whether a target at this distance (m) is measured: within ``max_range``, or always when
+        there is none; broadcasts."""
         d = np.asarray(distance, dtype=float)
         if self.max_range is None:
             return np.ones_like(d, dtype=bool)
@@ -163,6 +167,9 @@ class RangeBearingSensor(MeasurementModel):
     def information(
         self, robot: FloatArray, target: FloatArray, eps: float = PLAN_EPS
     ) -> FloatArray:
+        """Entries ``(xx, xy, yy)`` (last axis) of ``Hᵀ R⁻¹ H`` of a sensor at ``robot`` seeing
+        ``target`` (paper eq. 2), ``d² = ‖p − x‖² + eps²``; broadcasts. The NumPy twin of
+        :meth:`information_casadi`."""
         delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
         dx, dy = delta[..., 0], delta[..., 1]
         d2 = dx * dx + dy * dy + eps**2

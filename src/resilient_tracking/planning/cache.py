@@ -51,6 +51,8 @@ class LruCache(Generic[K, V]):
         return sum(float(self.weigh(value)) for value in self._entries.values())
 
     def get(self, key: K, build: Callable[[], V]) -> V:
+        """The value cached under ``key``, else ``build()``'s, stored as the most recently used
+        entry (the least recently used are then evicted down to the budget)."""
         if key in self._entries:
             self._entries.move_to_end(key)
             return self._entries[key]
@@ -77,7 +79,9 @@ class LruCache(Generic[K, V]):
         return iter(list(self._entries))
 
     def values(self) -> list[V]:
+        """The cached values, least recently used first."""
         return list(self._entries.values())
 
     def clear(self) -> None:
+        """Forget every entry (without calling ``on_evict``)."""
         self._entries.clear()

@@ -59,10 +59,13 @@ def enabled() -> bool:
 
 
 def compiler() -> str | None:
+    """Path of the C compiler (``$CC``, default ``gcc``), or None when none is found."""
     return shutil.which(os.environ.get("CC", "gcc"))
 
 
 def cache_dir() -> Path:
+    """Where compiled libraries are cached: ``$RTRACK_CACHE_DIR``, else ``$XDG_CACHE_HOME`` (default
+    ``~/.cache``) ``/resilient_tracking/codegen``."""
     root = os.environ.get("RTRACK_CACHE_DIR")
     if root:
         return Path(root)
@@ -239,6 +242,8 @@ class CompiledFunctions:
         prune_cache(self.library.parent, keep=self.library)
 
     def load(self) -> dict[str, ca.Function]:
+        """The compiled functions by key, loaded from the library on first use (call only once
+        :meth:`ready`)."""
         if not self._loaded:
             self._loaded = {
                 key: ca.external(name, str(self.library)) for key, name in self.names.items()

@@ -140,10 +140,14 @@ class Structure:
 
     @property
     def n_vars(self) -> int:
+        """Decision variables: per robot a velocity ``u_i`` (2) and one slack per sensing and per
+        comm zone."""
         return self.n_robots * (2 + self.n_sensing_zones + self.n_comm_zones)
 
     @property
     def n_constraints(self) -> int:
+        """Constraint rows: per robot one per sensing zone (eq. 7c) and one per comm zone and
+        teammate (eq. 7d)."""
         n = self.n_robots
         return n * self.n_sensing_zones + n * self.n_comm_zones * (n - 1)
 
@@ -256,9 +260,12 @@ class Parameter:
     when: str
 
     def present(self, structure: Structure) -> bool:
+        """Whether the block is in the parameter vector of ``structure`` (its ``when`` flag is
+        set, or it has none)."""
         return not self.when or bool(getattr(structure, self.when))
 
     def size_in(self, structure: Structure) -> int:
+        """Numbers per item (robot, target, zone...) in ``structure``."""
         return self.size(structure) if callable(self.size) else self.size
 
 
@@ -326,10 +333,12 @@ class VariableLayout:
 
     @property
     def n_u(self) -> int:
+        """Number of velocity entries, ``2 n``."""
         return 2 * self.n_robots
 
     @property
     def n_vars(self) -> int:
+        """Length of the decision vector ``x = (u, ν, ξ)``."""
         return self.n_robots * (2 + self.n_nu + self.n_xi)
 
     def u(self, i: Any) -> Any:
@@ -337,9 +346,11 @@ class VariableLayout:
         return 2 * i
 
     def nu(self, i: Any, slot: Any) -> Any:
+        """Index of robot ``i``'s sensing slack ``ν`` in ``slot``."""
         return 2 * self.n_robots + i * self.n_nu + slot
 
     def xi(self, i: Any, slot: Any) -> Any:
+        """Index of robot ``i``'s comm slack ``ξ`` in ``slot``."""
         return 2 * self.n_robots + self.n_robots * self.n_nu + i * self.n_xi + slot
 
     def velocities(self, decision: np.ndarray) -> np.ndarray:

@@ -116,6 +116,7 @@ class LeagueProblem:
 
     @property
     def n_params(self) -> int:
+        """Length of the full problem's parameter vector."""
         return self.nlp.n_params
 
     @property
@@ -217,9 +218,12 @@ class LeagueProblem:
     # ------------------------------------------------------------------ one step
 
     def pack_params(self, q: ProblemInputs) -> np.ndarray:
+        """The parameter vector of ``q`` (:meth:`ParameterLayout.pack`)."""
         return ParameterLayout.pack(q)
 
     def bounds(self, q: ProblemInputs) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the decision vector: the velocity bounds ``q.u_lower``,
+        ``q.u_upper`` (eq. 3), then slacks ``≥ 0``."""
         s = self.structure
         n_slack = s.n_robots * (s.n_sensing_zones + s.n_comm_zones)
         lower = np.concatenate([q.u_lower.ravel(), np.zeros(n_slack)])

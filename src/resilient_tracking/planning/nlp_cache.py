@@ -43,6 +43,7 @@ def solver_builds() -> int:
 
 
 def count_solver_build() -> None:
+    """Count one more solver created (see :func:`solver_builds`)."""
     _BUILDS["solvers"] += 1
 
 

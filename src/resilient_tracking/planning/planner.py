@@ -103,6 +103,7 @@ class SolverLadder:
         self._warm: OrderedDict[tuple[Any, tuple[int, ...]], dict[str, np.ndarray]] = OrderedDict()
 
     def build(self, structure: Any) -> Any:
+        """The problem of ``structure``; subclasses say how to build it."""
         raise NotImplementedError
 
     def prepare(self, structure: Any) -> Any:
@@ -140,6 +141,8 @@ class SolverLadder:
         return 1.0
 
     def problem(self, structure: Any) -> Any:
+        """The problem of ``structure``, from the cache or built now (:meth:`build`)."""
+
         def build() -> Any:
             log.debug("building %s for %s", type(self).__name__, structure)
             return self.build(structure)
@@ -165,6 +168,10 @@ class SolverLadder:
         return rungs
 
     def plan(self, structure: Any, members: tuple[int, ...], q: Any) -> PlanResult:
+        """Controls ``(n, 2)`` for one league: each rung of :meth:`rungs` in turn until one succeeds
+        with finite numbers (clipped to the bounds, its solution kept as the membership's next warm
+        start), else hold position; every attempt is recorded in the :class:`PlanResult`, and no
+        exception escapes."""
         key = (structure, members)
         warm = self._warm.get(key)
         start = time.perf_counter()
@@ -267,19 +274,24 @@ class LeaguePlanner(SolverLadder):
     PROBLEM_BUDGET = NLP_BUDGET
 
     def build(self, structure: Structure) -> LeagueProblem:
+        """The league NLP of ``structure`` with this planner's options."""
         return LeagueProblem(structure, "ipopt", self.options)
 
     def prepare(self, structure: Structure) -> LeagueProblem:
+        """The problem with the solvers its rungs will use already set up (a background build)."""
         problem = self.build(structure)
         problem.prepare(("sqp", "ipopt") if self.solver == "ladder" else ("ipopt",))
         return problem
 
     def weigh(self, problem: LeagueProblem) -> float:
+        """A problem's cache weight: the instructions of its symbolic code."""
         return float(problem.n_instructions)
 
     def problem(self, structure: Structure) -> LeagueProblem:
+        """The :class:`LeagueProblem` of ``structure``, cached."""
         problem: LeagueProblem = super().problem(structure)
         return problem
 
     def plan(self, structure: Structure, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
+        """Controls ``(n, 2)`` for one league from inputs ``q`` (see :meth:`SolverLadder.plan`)."""
         return super().plan(structure, members, q)

@@ -180,6 +180,7 @@ class RouteMaps:
         self._maps: OrderedDict[bytes, RouteMap] = OrderedDict()
 
     def get(self, discs: np.ndarray) -> RouteMap:
+        """The route map of these discs ``(k, 3)``, reused when the same discs came recently."""
         key = np.ascontiguousarray(discs, dtype=float).tobytes()
         found = self._maps.get(key)
         if found is None:

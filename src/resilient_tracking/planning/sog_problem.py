@@ -145,10 +145,13 @@ class SogStructure:
 
     @property
     def n_risk_slacks(self) -> int:
+        """Risk slacks ``δ2i``: one per robot when zones are known, else none."""
         return self.n_robots if self.n_zones else 0
 
     @property
     def n_vars(self) -> int:
+        """Decision variables: velocities ``u_i`` (2 per robot), tracking slacks ``δ1j`` (one per
+        target), then the risk slacks."""
         return 2 * self.n_robots + self.n_targets + self.n_risk_slacks
 
 
@@ -227,6 +230,9 @@ class SogProblem:
         return call
 
     def pack_params(self, q: SogInputs) -> np.ndarray:
+        """The parameter vector of one solve, in the order :class:`SogNLP` declares it: positions,
+        sensing flags, targets, prior information, sensor numbers, ``dt``, zone rows, then
+        ``ρ1, ρ2``, the weights and the hazard scales."""
         prior = np.stack(
             [q.prior_info[:, 0, 0], q.prior_info[:, 0, 1], q.prior_info[:, 1, 1]], axis=0
         )
@@ -252,6 +258,8 @@ class SogProblem:
         return np.concatenate([np.asarray(p, dtype=float).ravel(order="F") for p in parts])
 
     def bounds(self, q: SogInputs) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the decision vector: the velocity bounds, then slacks ``≥
+        0``."""
         n_slack = self.structure.n_targets + self.structure.n_risk_slacks
         lower = np.concatenate([q.u_lower.ravel(), np.zeros(n_slack)])
         upper = np.concatenate([q.u_upper.ravel(), np.full(n_slack, np.inf)])
@@ -294,9 +302,12 @@ class SogPlanner(SolverLadder):
         self.options = ProblemOptions.of(options)
 
     def build(self, structure: SogStructure) -> SogProblem:
+        """The SOG problem of ``structure`` with this planner's options."""
         return SogProblem(structure, self.options)
 
     def plan_sog(self, members: tuple[int, ...], q: SogInputs) -> PlanResult:
+        """Controls ``(n, 2)`` for one league from inputs ``q``, through the ladder (its structure
+        read from ``q``'s sizes)."""
         structure = SogStructure(
             len(q.positions), len(q.targets), len(q.zones), sensor_model=q.sensor_model
         )

@@ -94,5 +94,7 @@ class ProblemOptions:
         return cls(**given, qp_options=dict(qp_options))
 
     def qpsol_options(self) -> dict[str, Any]:
+        """Options of the SQP's QP solver: the project's qpOASES defaults (for qpOASES) overridden
+        by ``qp_options``."""
         defaults = QPOASES_OPTIONS if self.qpsol == "qpoases" else {}
         return {**defaults, **self.qp_options}

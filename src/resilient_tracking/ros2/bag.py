@@ -46,6 +46,8 @@ class BagRecorder:
         self.count = 0
 
     def write(self, ros_topic: str, msg: IdlStruct, timestamp_ns: int) -> None:
+        """Write ``msg`` of the ROS 2 topic ``ros_topic`` at ``timestamp_ns`` (ns), registering the
+        topic's connection with its first message."""
         topic = "/" + dds_topic(ros_topic).removeprefix("rt/")
         if topic not in self._connections:
             self._connections[topic] = self._writer.add_connection(
@@ -55,5 +57,6 @@ class BagRecorder:
         self.count += 1
 
     def close(self) -> None:
+        """Close the bag and log how many messages it holds."""
         self._writer.close()
         log.info("bag %s: %d messages", self.path, self.count)

@@ -27,10 +27,12 @@ class MessageError(ValueError):
 
 
 def stamp_from_ns(ns: int) -> msgs.Time:
+    """A ROS 2 ``Time`` stamp from nanoseconds."""
     return msgs.Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
 
 
 def stamp_ns(stamp: msgs.Time) -> int:
+    """Nanoseconds of a ROS 2 ``Time`` stamp."""
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
@@ -43,6 +45,8 @@ def step_stamp(step: int, dt: float) -> msgs.Time:
 
 
 def pose_stamped(xy: np.ndarray, z: float, stamp: msgs.Time, frame: str) -> msgs.PoseStamped:
+    """A ``PoseStamped`` at position ``(xy[0], xy[1], z)`` (m), identity orientation, in
+    ``frame``."""
     return msgs.PoseStamped(
         header=msgs.Header(stamp=stamp, frame_id=frame),
         pose=msgs.Pose(position=msgs.Point(float(xy[0]), float(xy[1]), float(z))),
@@ -61,6 +65,9 @@ def pose_xy(msg: msgs.PoseStamped, name: str) -> np.ndarray:
 
 
 def observation_to_msg(obs: TeamObservation, stamp: msgs.Time, frame: str) -> msgs.TeamObservation:
+    """The tick's :class:`TeamObservation` as a message: step and time, measurements ``(m, N, 2)``
+    flattened, capability flags and persistences, links, attacks with their clues, and recoveries
+    (float64 numbers throughout)."""
     attacks = [
         msgs.ZoneAttack(
             robot=int(a.robot),

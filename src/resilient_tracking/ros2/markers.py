@@ -44,6 +44,9 @@ def belief_markers(
     header: msgs.Header,
     altitude: float,
 ) -> msgs.MarkerArray:
+    """RViz markers of the team's belief: each target estimate with its covariance ellipse, each
+    known zone, and each robot's index and mode as text at ``altitude`` (m); the first marker
+    deletes the previous set."""
     markers = [msgs.Marker(header=header, action=msgs.DELETEALL)]
 
     def add(ns: str, kind: int, **fields: object) -> None:

@@ -49,12 +49,18 @@ class NodeSettings:
         target_prefix: str = "target",
         **kwargs: object,
     ) -> NodeSettings:
+        """Settings for ``scenario``'s team: robots ``cf1..cfM`` and targets ``target1..targetN``
+        (or the prefixes given); other fields from ``kwargs``."""
         robots = [f"{robot_prefix}{i + 1}" for i in range(len(scenario.robots))]
         targets = [f"{target_prefix}{j + 1}" for j in range(len(scenario.targets))]
         return cls(robots=robots, targets=targets, **kwargs)  # type: ignore[arg-type]
 
     def pose_topic(self, name: str) -> str:
+        """``/<name>/pose``: the pose of a robot or target (motion capture or the simulated
+        world)."""
         return f"/{name}/pose"
 
     def command_topic(self, robot: str) -> str:
+        """A robot's command topic: ``/<robot>/cmd_full_state`` (Crazyswarm2) or
+        ``/<robot>/cmd_vel`` (Twist), per :attr:`command`."""
         return f"/{robot}/cmd_full_state" if self.command == "full_state" else f"/{robot}/cmd_vel"

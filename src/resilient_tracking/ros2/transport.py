@@ -38,6 +38,7 @@ def dds_topic(ros_topic: str) -> str:
 
 
 def default_qos(depth: int = 10) -> Qos:
+    """ROS 2's default profile: reliable, volatile, keep last ``depth``."""
     return Qos(
         Policy.Reliability.Reliable(duration(seconds=1)),
         Policy.Durability.Volatile,
@@ -47,6 +48,8 @@ def default_qos(depth: int = 10) -> Qos:
 
 
 def sensor_data_qos(depth: int = 5) -> Qos:
+    """ROS 2's sensor-data profile: best effort, volatile, keep last ``depth`` (accepts reliable
+    publishers too)."""
     return Qos(
         Policy.Reliability.BestEffort,
         Policy.Durability.Volatile,
@@ -56,6 +59,8 @@ def sensor_data_qos(depth: int = 5) -> Qos:
 
 
 def lockstep_qos(depth: int = 64) -> Qos:
+    """Reliable and transient-local, keep last ``depth``: a sample written before the other node was
+    discovered still arrives (lock-step runs)."""
     return Qos(
         Policy.Reliability.Reliable(duration(seconds=5)),
         Policy.Durability.TransientLocal,
@@ -105,11 +110,14 @@ class DdsNode:
         return self._topics[name]
 
     def publisher(self, ros_topic: str, msg_type: type[IdlStruct], qos: Qos) -> DataWriter:
+        """A writer of ``msg_type`` on the ROS 2 topic ``ros_topic`` with ``qos``."""
         writer = DataWriter(self.participant, self._topic(ros_topic, msg_type), qos=qos)
         self.writers.append(writer)
         return writer
 
     def subscription(self, ros_topic: str, msg_type: type[IdlStruct], qos: Qos) -> DataReader:
+        """A reader of ``msg_type`` on the ROS 2 topic ``ros_topic`` with ``qos``, attached to the
+        node's wait set."""
         reader = DataReader(self.participant, self._topic(ros_topic, msg_type), qos=qos)
         condition = ReadCondition(reader, SampleState.NotRead | ViewState.Any | InstanceState.Any)
         self._waitset.attach(condition)

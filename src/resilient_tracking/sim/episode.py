@@ -141,6 +141,7 @@ class EpisodeRecorder:
         ]
 
     def event(self, e: Event) -> None:
+        """Record one event row: step, robot, event and detail."""
         self.events.append({"step": e.step, "robot": e.robot, "event": e.event, "detail": e.detail})
 
     def step(
@@ -151,6 +152,9 @@ class EpisodeRecorder:
         truth: np.ndarray,
         team: Team,
     ) -> None:
+        """Record one tick: its events and the zones learned, the team row (MSE, trace, effort,
+        failures, leagues, solver counts), its planning time, and one row per robot and per target
+        (truth, estimate and variances)."""
         k = obs.step
         belief = team.belief
         for e in out.events:  # every event of the tick, attacks and learned zones included
@@ -216,6 +220,7 @@ class EpisodeRecorder:
         )
 
     def result(self, manifest: dict[str, Any]) -> EpisodeResult:
+        """The recorded tables, with ``manifest``, as an :class:`EpisodeResult`."""
         tables = {
             "team": self.team.frame(),
             "robots": self.robots.frame(),

@@ -46,6 +46,7 @@ class FolderBusyError(RuntimeError):
 
 
 def sha256_of(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes (read in 1 MiB blocks)."""
     digest = hashlib.sha256()
     with path.open("rb") as handle:
         for block in iter(lambda: handle.read(1 << 20), b""):

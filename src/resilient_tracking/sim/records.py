@@ -98,6 +98,7 @@ class ColumnTable:
             self._columns[name] = grown
 
     def frame(self) -> pd.DataFrame:
+        """The rows appended so far as a DataFrame (a copy)."""
         return pd.DataFrame({name: c[: self._rows].copy() for name, c in self._columns.items()})
 
 

@@ -64,9 +64,11 @@ class SoakReport:
 
     @property
     def finite(self) -> bool:
+        """Whether no recorded table holds a NaN or infinite number."""
         return not self.non_finite
 
     def at_checkpoints(self) -> list[MemorySample]:
+        """The memory samples taken at the :attr:`checkpoints` steps."""
         return [s for s in self.samples if s.step in self.checkpoints]
 
     def records_mb(self, steps: int) -> float:

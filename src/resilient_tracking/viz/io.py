@@ -69,19 +69,23 @@ class RunData:
 
     @property
     def scenario(self) -> dict[str, Any]:
+        """The scenario as the manifest stores it (a mapping; empty when absent)."""
         scenario = self.manifest.get("scenario", {})
         return scenario if isinstance(scenario, dict) else {}
 
     @property
     def scenario_name(self) -> str:
+        """The scenario's name, else the run folder's name."""
         return str(self.scenario.get("name", self.run_dir.name))
 
     @property
     def policy(self) -> str:
+        """The policy's name from the manifest (``?`` when absent)."""
         return str(self.manifest.get("policy", "?"))
 
     @property
     def seed(self) -> int | None:
+        """The episode's seed from the manifest; None when absent."""
         seed = self.manifest.get("seed")
         return int(seed) if seed is not None else None
 
@@ -113,6 +117,7 @@ class RunData:
 
     @property
     def last_step(self) -> int:
+        """The last step in the team, robot and target tables (0 when all are empty)."""
         frames = [df["step"] for df in (self.team, self.robots, self.targets) if len(df)]
         return int(max(int(s.max()) for s in frames)) if frames else 0
 

@@ -87,10 +87,12 @@ class World:
 
     @property
     def time(self) -> float:
+        """Simulated time (s) of the current step: ``step_index · dt``."""
         return self.step_index * self.dt
 
     @property
     def n_robots(self) -> int:
+        """Number of robots ``m``."""
         return len(self.robot_positions)
 
     @property
@@ -99,9 +101,12 @@ class World:
         return np.array([t.state for t in self.targets])
 
     def capability_ok(self, kind: FailureKind) -> np.ndarray:
+        """``(m,)`` bool: whose sensor (``kind="sensing"``) or radio (``"comm"``) works now."""
         return np.array([f is None for f in self.failures[kind]])
 
     def persistence(self, kind: FailureKind) -> tuple[str, ...]:
+        """Per robot, the persistence of its current failure of ``kind`` (``temporary`` or
+        ``permanent``); ``""`` when it has none."""
         return tuple("" if f is None else f.persistence for f in self.failures[kind])
 
     # ------------------------------------------------------------------ observation
