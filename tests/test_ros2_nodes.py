@@ -250,3 +250,26 @@ def test_a_free_running_node_builds_in_the_background_and_warm_up_fills_the_cach
     assert cache_module.nlp_cache().builds > 0
     locked = dataclasses.replace(free, lockstep=True)
     assert not TrackerNode(scenario, 1, "failure_aware", locked).planner.background_builds
+
+
+def test_a_background_writer_writes_the_newest_message_and_drops_stale_ones():
+    from resilient_tracking.ros2.transport import BackgroundWriter
+
+    class Slow:
+        def __init__(self):
+            self.gate, self.started, self.written = threading.Event(), threading.Event(), []
+
+        def write(self, msg):
+            self.started.set()
+            assert self.gate.wait(10)
+            self.written.append(msg)
+
+    slow = Slow()
+    out = BackgroundWriter(slow)  # type: ignore[arg-type]
+    out.write("first")
+    assert slow.started.wait(10)  # "first" is being written; the next two wait their turn
+    out.write("stale")
+    out.write("newest")
+    slow.gate.set()
+    out.close()
+    assert slow.written == ["first", "newest"] and out.dropped == 1

@@ -39,6 +39,7 @@ from resilient_tracking.ros2.convert import (
 from resilient_tracking.ros2.markers import belief_markers
 from resilient_tracking.ros2.topics import BELIEF_TOPIC, OBSERVATION_TOPIC, NodeSettings
 from resilient_tracking.ros2.transport import (
+    BackgroundWriter,
     DdsNode,
     default_qos,
     lockstep_qos,
@@ -121,6 +122,10 @@ class TrackerNode:
             self.node.publisher(s.command_topic(name), command_type, out_qos) for name in s.robots
         ]
         self._belief_writer = self.node.publisher(BELIEF_TOPIC, msgs.MarkerArray, default_qos(1))
+        #: running free, the belief markers are serialized and written off the control path
+        self._belief_out: BackgroundWriter | None = (
+            None if s.lockstep else BackgroundWriter(self._belief_writer, "rtrack-markers")
+        )
         self._pending: deque[msgs.TeamObservation] = deque()
 
     def warm_up(self) -> None:
@@ -169,6 +174,8 @@ class TrackerNode:
         wall = time.perf_counter() - started
         if self.planner is not None:
             self.planner.close()
+        if self._belief_out is not None:
+            self._belief_out.close()
         manifest = episode_manifest(self.scenario, self.seed, self.policy, self.steps_done, wall)
         manifest["transport"] = {
             "kind": "ros2-dds",
@@ -249,7 +256,7 @@ class TrackerNode:
         markers = belief_markers(
             self.team.belief, positions, out.decision.modes, header, self.settings.altitude
         )
-        self._belief_writer.write(markers)
+        (self._belief_out or self._belief_writer).write(markers)
         self._record(BELIEF_TOPIC, markers)
         self.steps_done += 1
         return True

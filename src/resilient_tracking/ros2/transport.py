@@ -12,7 +12,9 @@ CycloneDDS reads its configuration (network interface, discovery) from ``CYCLONE
 
 from __future__ import annotations
 
+import logging
 import os
+import threading
 import time
 from typing import Any
 
@@ -24,6 +26,8 @@ from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
+
+log = logging.getLogger(__name__)
 
 #: Plain CDR (XCDR1), the representation ROS 2's rmw layers use.
 _CDR = Policy.DataRepresentation(use_cdrv0_representation=True)
@@ -149,3 +153,50 @@ def take(reader: DataReader, limit: int = 256) -> list[Any]:
         for s in reader.take(N=limit)
         if getattr(s, "sample_info", None) is None or s.sample_info.valid_data
     ]
+
+
+class BackgroundWriter:
+    """Writes messages from a worker thread, keeping only the newest one waiting.
+
+    For visualization topics on a control loop: serializing a large message (a belief
+    ``MarkerArray`` at 10×10 takes about 14 ms in cyclonedds' Python serializer) then happens
+    while the loop waits for its next period, not between an observation and its setpoints.
+    A message not yet written when a newer one arrives is dropped.
+    """
+
+    def __init__(self, writer: DataWriter, name: str = "rtrack-writer"):
+        self._writer = writer
+        self._ready = threading.Condition()
+        self._pending: IdlStruct | None = None
+        self._closed = False
+        self.dropped = 0
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def write(self, msg: IdlStruct) -> None:
+        """Hand ``msg`` over for writing (replacing one still waiting)."""
+        with self._ready:
+            if self._pending is not None:
+                self.dropped += 1
+            self._pending = msg
+            self._ready.notify()
+
+    def close(self, timeout: float = 5.0) -> None:
+        """Write what is waiting, then stop the thread."""
+        with self._ready:
+            self._closed = True
+            self._ready.notify()
+        self._thread.join(timeout)
+
+    def _run(self) -> None:
+        while True:
+            with self._ready:
+                while self._pending is None and not self._closed:
+                    self._ready.wait()
+                if self._pending is None:
+                    return
+                msg, self._pending = self._pending, None
+            try:
+                self._writer.write(msg)
+            except Exception as err:  # a visualization topic must not stop the loop
+                log.warning("writing %s failed: %s", type(msg).__name__, err)
