@@ -74,6 +74,9 @@ def arc_coverage(points: np.ndarray, center: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class CircleGates:
+    """Quality gates a circle fit must pass before a comm zone is inferred from it (Alg. 3):
+    the observation window, samples, arc (rad), residual and radius bounds (m)."""
+
     window: int = 40
     min_samples: int = 20
     min_arc: float = 2.5

@@ -55,6 +55,9 @@ class Variant:
 
 @dataclass(frozen=True)
 class Experiment:
+    """One experiment of ``rtrack reproduce``: a scenario (or generated ones), its variants, how
+    many seeds, and which figures and claims its report section draws."""
+
     name: str
     scenario: str  # name of a shipped scenario (``resilient_tracking.scenarios``)
     variants: tuple[Variant, ...]

@@ -16,6 +16,9 @@ from resilient_tracking.experiments.generalization import straggler_share, win_r
 
 @dataclass(frozen=True)
 class Claim:
+    """One of the paper's claims checked on an experiment's summary: the statement, whether it
+    holds, and the numbers that decide it."""
+
     experiment: str
     statement: str
     holds: bool

@@ -47,6 +47,9 @@ class MemorySample:
 
 @dataclass
 class SoakReport:
+    """A long run's memory samples, timing and table health (tools/soak.py,
+    docs/reliability.md §4)."""
+
     scenario: str
     policy: str
     seed: int
