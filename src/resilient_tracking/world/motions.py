@@ -33,21 +33,23 @@ class WaypointsMotion(TargetMotion):
 
     def __init__(self, spec: Waypoints, start: np.ndarray):
         super().__init__(spec, start)
+        #: the points as arrays, once (every step reads them)
+        self._points = [np.asarray(p, dtype=float) for p in spec.points]
         self._next_waypoint = 0
         self.velocity = self._waypoint_velocity()
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Spend ``speed · dt`` of path, passing as many points as it reaches."""
         budget = self.spec.speed * dt
-        points = self.spec.points
+        points = self._points
         for _ in range(len(points) + 1):  # bounded: a loop of coincident points ends
             if budget <= 0 or self._next_waypoint >= len(points):
                 break
-            goal = np.asarray(points[self._next_waypoint], dtype=float)
+            goal = points[self._next_waypoint]
             delta = goal - self.position
             dist = float(np.linalg.norm(delta))
             if dist <= budget:
-                self.position = goal
+                self.position = goal.copy()
                 budget -= dist
                 self._next_waypoint += 1
                 if self.spec.loop and self._next_waypoint == len(points):
@@ -58,9 +60,9 @@ class WaypointsMotion(TargetMotion):
         self.velocity = self._waypoint_velocity()
 
     def _waypoint_velocity(self) -> np.ndarray:
-        if self._next_waypoint >= len(self.spec.points):
+        if self._next_waypoint >= len(self._points):
             return np.zeros(2)
-        delta = np.asarray(self.spec.points[self._next_waypoint]) - self.position
+        delta = self._points[self._next_waypoint] - self.position
         dist = float(np.linalg.norm(delta))
         return np.zeros(2) if dist == 0 else delta / dist * self.spec.speed
 
