@@ -171,10 +171,6 @@ class LeagueProblem:
         if compiled and job is not None:
             try:
                 functions = job.load()
-                if "fg" in functions:
-                    # the SQP's oracle: sqpmethod sets up (never calls: calc_lam_p is off)
-                    # a gradient function of it, which needs derivatives to exist
-                    functions = {**functions, "fg": job.external("fg", {"enable_fd": True})}
             except RuntimeError as err:  # a broken library: stay on the virtual machine
                 log.warning("loading %s failed: %s", job.library, err)
                 job.failed, compiled = True, False
@@ -200,9 +196,9 @@ class LeagueProblem:
             return ca.nlpsol(name, "ipopt", nlp, opts)
         opts.update(SQP_OPTIONS)
         opts.update(self.options.sqp)
-        # f and g (line search, convergence test) on compiled code too when there is some, but
-        # not for the reduced problem: for a compiled oracle sqpmethod sets up finite
-        # differences over its ~2500 parameters (the slot selections), ≈ 35 MB per 20×20 solver
+        # f and g (line search, convergence test) on compiled code too when there is some; the
+        # reduced problem keeps them on the virtual machine, where its published results were
+        # made (compiled code may round differently and tip a line-search decision)
         functions = dict(functions)
         fg = functions.pop("fg")
         if compiled and method != "sqp_slots":
