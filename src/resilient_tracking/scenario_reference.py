@@ -206,7 +206,7 @@ def render() -> str:
     parts = [
         "# Scenario reference",
         "",
-        "Generated from the schema in `resilient_tracking/scenario.py` by "
+        "Generated from the schema in the `resilient_tracking/scenario/` package by "
         "`python -m resilient_tracking.scenario_reference > docs/scenario-reference.md`; do not "
         "edit by hand. [scenario-format.md](scenario-format.md) explains the format with "
         "examples; the rules there (strict numbers, unknown keys are errors, cross-field "

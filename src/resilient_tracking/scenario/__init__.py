@@ -1,0 +1,140 @@
+"""Scenario files: schema, loading and validation with errors that name the field.
+
+A scenario is a YAML mapping validated by pydantic models, one module per part of the file:
+
+- :mod:`~.base`: the strict base model, bounded number types, size limits;
+- :mod:`~.world_specs`: workspace, robots, targets and their motions, sensor, estimator;
+- :mod:`~.zones`: danger zones and their hazard models;
+- :mod:`~.policies`: the ``policy`` section; :mod:`~.planner`: the ``planner`` section;
+- :mod:`~.model`: the whole :class:`Scenario` with its cross-field checks;
+- :mod:`~.loading`: ``load_scenario`` returns a :class:`Scenario` or raises
+  :class:`ScenarioError` listing every problem as ``field.path: message (got value)``.
+
+The format is documented in ``docs/scenario-format.md``; everything is importable from here.
+"""
+
+from __future__ import annotations
+
+from resilient_tracking.scenario.base import (
+    MAX_COORDINATE,
+    MAX_DT,
+    MAX_RECORDED_ROWS,
+    MAX_ROBOTS,
+    MAX_ROBOTS_X_TARGETS,
+    MAX_STEPS,
+    MAX_TARGETS,
+    MAX_VARIANCE,
+    MAX_ZONES,
+    MIN_COVARIANCE_RATIO,
+    MIN_DT,
+    MIN_VARIANCE,
+    Coordinate,
+    Matrix2,
+    Number,
+    PositiveFloat,
+    Row2,
+    Strict,
+    Vec2,
+)
+from resilient_tracking.scenario.loading import (
+    ScenarioError,
+    load_scenario,
+    parse_scenario,
+)
+from resilient_tracking.scenario.model import (
+    Scenario,
+)
+from resilient_tracking.scenario.planner import (
+    PlannerSpec,
+    RouteSpec,
+)
+from resilient_tracking.scenario.policies import (
+    POLICY_NAMES,
+    CircleFitParams,
+    FailureAwareParams,
+    PolicySpec,
+    SogParams,
+    SogSlackWeights,
+    VanillaParams,
+    WeightSet,
+)
+from resilient_tracking.scenario.world_specs import (
+    Circle,
+    ConstantVelocity,
+    EstimatorSpec,
+    MotionSpec,
+    NoisyConstantVelocity,
+    RobotSpec,
+    SensorChannel,
+    SensorSpec,
+    TargetMotion,
+    TargetSpec,
+    Waypoints,
+    Workspace,
+)
+from resilient_tracking.scenario.zones import (
+    CommZone,
+    DiskHazard,
+    GaussianHazard,
+    Hazard,
+    HazardSpec,
+    SensingZone,
+    Zone,
+    ZoneBase,
+)
+
+__all__ = [
+    "MAX_COORDINATE",
+    "MAX_VARIANCE",
+    "MIN_COVARIANCE_RATIO",
+    "MIN_VARIANCE",
+    "MAX_ROBOTS",
+    "MAX_TARGETS",
+    "MAX_ROBOTS_X_TARGETS",
+    "MAX_ZONES",
+    "MAX_STEPS",
+    "MAX_DT",
+    "MIN_DT",
+    "MAX_RECORDED_ROWS",
+    "Number",
+    "Coordinate",
+    "Vec2",
+    "Row2",
+    "Matrix2",
+    "PositiveFloat",
+    "Strict",
+    "Workspace",
+    "RobotSpec",
+    "MotionSpec",
+    "ConstantVelocity",
+    "Waypoints",
+    "Circle",
+    "NoisyConstantVelocity",
+    "TargetMotion",
+    "TargetSpec",
+    "SensorChannel",
+    "SensorSpec",
+    "EstimatorSpec",
+    "HazardSpec",
+    "GaussianHazard",
+    "DiskHazard",
+    "Hazard",
+    "ZoneBase",
+    "SensingZone",
+    "CommZone",
+    "Zone",
+    "VanillaParams",
+    "WeightSet",
+    "CircleFitParams",
+    "FailureAwareParams",
+    "SogSlackWeights",
+    "SogParams",
+    "PolicySpec",
+    "POLICY_NAMES",
+    "RouteSpec",
+    "PlannerSpec",
+    "Scenario",
+    "ScenarioError",
+    "parse_scenario",
+    "load_scenario",
+]

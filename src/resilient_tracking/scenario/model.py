@@ -1,0 +1,123 @@
+"""The whole scenario: every section together, with the cross-field checks pydantic cannot see."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from pydantic import (
+    Field,
+)
+
+from resilient_tracking.scenario.base import (
+    MAX_DT,
+    MAX_RECORDED_ROWS,
+    MAX_ROBOTS,
+    MAX_ROBOTS_X_TARGETS,
+    MAX_STEPS,
+    MAX_TARGETS,
+    MAX_ZONES,
+    MIN_DT,
+    PositiveFloat,
+    Strict,
+)
+from resilient_tracking.scenario.planner import PlannerSpec
+from resilient_tracking.scenario.policies import PolicySpec
+from resilient_tracking.scenario.world_specs import (
+    Circle,
+    EstimatorSpec,
+    RobotSpec,
+    SensorSpec,
+    TargetSpec,
+    Workspace,
+)
+from resilient_tracking.scenario.zones import Zone
+
+# ---------------------------------------------------------------------------- scenario
+
+
+class Scenario(Strict):
+    """A whole scenario file: team, targets, zones, policy and planner (docs/scenario-format.md)."""
+
+    name: str = Field("scenario", description="Label used in output folders and plots.")
+    description: str = Field("", description="Free text.")
+    seed: int = Field(
+        0,
+        ge=0,
+        description="Episode seed; every random draw comes from its own stream derived from it.",
+    )
+    #: at most 10 s: beyond it one step moves targets out of any sensor's reach
+    dt: float = Field(
+        0.1, ge=MIN_DT, le=MAX_DT, description="Time step.", json_schema_extra={"unit": "s"}
+    )
+    steps: int = Field(
+        300,
+        ge=1,
+        le=MAX_STEPS,
+        description="Episode length (duration steps · dt).",
+        json_schema_extra={"unit": "steps"},
+    )
+    workspace: Workspace = Field(Workspace(), description="Box the robots stay in.")
+    sensor: SensorSpec = Field(SensorSpec(), description="Range/bearing sensor of every robot.")
+    estimator: EstimatorSpec = Field(
+        EstimatorSpec(), description="The robots' target model and initial uncertainty."
+    )
+    robots: list[RobotSpec] = Field(min_length=1, max_length=MAX_ROBOTS, description="The team.")
+    targets: list[TargetSpec] = Field(
+        min_length=1, max_length=MAX_TARGETS, description="The targets to track."
+    )
+    zones: list[Zone] = Field(
+        default_factory=list,
+        max_length=MAX_ZONES,
+        description="Danger zones, initially unknown to the robots, selected by kind.",
+    )
+    comm_range: PositiveFloat | None = Field(
+        None,
+        description="Robots link only within this distance; null: unlimited.",
+        json_schema_extra={"unit": "m"},
+    )
+    policy: PolicySpec = Field(
+        PolicySpec(), description="The policy the team uses and its parameters."
+    )
+    planner: PlannerSpec = Field(PlannerSpec(), description="How the league problems are solved.")
+
+    def problems(self) -> list[str]:
+        """Cross-field problems pydantic cannot see, each naming its field."""
+        out: list[str] = []
+        ws = self.workspace
+        if ws.xmin >= ws.xmax:
+            out.append(f"workspace.xmax: must exceed xmin={ws.xmin} (got {ws.xmax})")
+        if ws.ymin >= ws.ymax:
+            out.append(f"workspace.ymax: must exceed ymin={ws.ymin} (got {ws.ymax})")
+        n, m = len(self.robots), len(self.targets)
+        if n * m > MAX_ROBOTS_X_TARGETS:
+            out.append(
+                f"robots: {n} robots × {m} targets exceeds the supported "
+                f"{MAX_ROBOTS_X_TARGETS} robot-target pairs (got {n} × {m} = {n * m})"
+            )
+        if self.steps * (n + m) > MAX_RECORDED_ROWS:
+            out.append(
+                f"steps: {self.steps} steps × {n + m} robots and targets would record more than "
+                f"{MAX_RECORDED_ROWS} rows; split the run (got {self.steps})"
+            )
+        for i, robot in enumerate(self.robots):
+            if not ws.contains(robot.start):
+                out.append(f"robots.{i}.start: outside the workspace (got {list(robot.start)})")
+        for j, target in enumerate(self.targets):
+            if not ws.contains(target.start):
+                out.append(f"targets.{j}.start: outside the workspace (got {list(target.start)})")
+            motion = target.motion
+            if isinstance(motion, Circle) and math.dist(motion.center, target.start) == 0:
+                out.append(
+                    f"targets.{j}.motion.center: equals the start, radius would be 0 "
+                    f"(got {list(motion.center)})"
+                )
+        return out
+
+    def with_overrides(self, **changes: Any) -> Scenario:
+        """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…)."""
+        data = self.model_dump()
+        data.update(changes)
+        from resilient_tracking.scenario.loading import parse_scenario
+
+        return parse_scenario(data, f"{self.name} (overridden)")

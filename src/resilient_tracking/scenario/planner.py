@@ -1,0 +1,79 @@
+"""The planner section of a scenario: which program and solver plan the league problems."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import (
+    Field,
+)
+
+from resilient_tracking.scenario.base import Strict
+
+
+class RouteSpec(Strict):
+    """The route program (docs/calibration.md, "Evade, then come back"): the paper's objective
+    plus a cost-to-go along the shortest route around the known keep-out regions to each
+    robot's assigned target, with the information model regularised at ``standoff``."""
+
+    speed: float = Field(
+        0.8,
+        gt=0,
+        le=1,
+        description=(
+            "Speed, as a fraction of the robot's u_max, at which the cost-to-go alone moves a "
+            "robot that is far from its goal."
+        ),
+    )
+    reach: float = Field(
+        0.7,
+        ge=0,
+        le=100,
+        description="Route length to its goal within which a robot feels no pull.",
+        json_schema_extra={"unit": "m"},
+    )
+    lookahead: float = Field(
+        3.0,
+        ge=0,
+        le=100,
+        description="At most this much target motion between a goal and its target's estimate.",
+        json_schema_extra={"unit": "s"},
+    )
+    spread: float = Field(
+        0.5,
+        ge=0,
+        le=100,
+        description="Extra route length charged to each further robot assigned to one target.",
+        json_schema_extra={"unit": "m"},
+    )
+    standoff: float = Field(
+        0.2,
+        gt=0,
+        le=10,
+        description=(
+            "Distance regularisation of the planner's range-bearing information model (the "
+            "paper's one-step program uses 0.05)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+
+
+class PlannerSpec(Strict):
+    """How league problems are built and solved: the planner program (the paper's one-step
+    program or the route program) and the solver (the fast SQP ladder or IPOPT only)."""
+
+    program: Literal["route", "one_step"] = Field(
+        "route",
+        description=(
+            "route: the paper's objective plus a cost-to-go around known zones back to the "
+            "targets (docs/calibration.md); one_step: the paper's one-step program (eq. 9)."
+        ),
+    )
+    route: RouteSpec = Field(RouteSpec(), description="Parameters of the route program.")
+    solver: Literal["ladder", "ipopt"] = Field(
+        "ladder",
+        description=(
+            "ladder: SQP warm-started from the previous step, then IPOPT warm, IPOPT cold, then "
+            "hold position; ipopt: the same without the SQP rung."
+        ),
+    )

@@ -1,0 +1,205 @@
+"""The world a scenario describes: the workspace, the robots, the targets and their motions,
+and the robots' sensor and estimator."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import (
+    Field,
+    SerializeAsAny,
+)
+
+from resilient_tracking.scenario.base import PositiveFloat, Strict, Vec2, plugin_spec
+
+# ---------------------------------------------------------------------------- geometry
+
+
+class Workspace(Strict):
+    """Axis-aligned box the robots stay in (metres)."""
+
+    xmin: float = Field(-5.0, description="Left edge of the box.", json_schema_extra={"unit": "m"})
+    xmax: float = Field(
+        5.0, description="Right edge; must exceed xmin.", json_schema_extra={"unit": "m"}
+    )
+    ymin: float = Field(
+        -5.0, description="Bottom edge of the box.", json_schema_extra={"unit": "m"}
+    )
+    ymax: float = Field(
+        5.0, description="Top edge; must exceed ymin.", json_schema_extra={"unit": "m"}
+    )
+
+    def contains(self, p: Vec2) -> bool:
+        """Whether point ``p`` (m) lies in the box, edges included."""
+        return self.xmin <= p[0] <= self.xmax and self.ymin <= p[1] <= self.ymax
+
+    @property
+    def lower(self) -> np.ndarray:
+        """The lower corner ``[xmin, ymin]`` (m)."""
+        return np.array([self.xmin, self.ymin])
+
+    @property
+    def upper(self) -> np.ndarray:
+        """The upper corner ``[xmax, ymax]`` (m)."""
+        return np.array([self.xmax, self.ymax])
+
+
+# ---------------------------------------------------------------------------- robots, targets
+
+
+class RobotSpec(Strict):
+    """One robot: its start position and velocity bound (paper eq. 3)."""
+
+    start: Vec2 = Field(
+        ..., description="Initial position, inside the workspace.", json_schema_extra={"unit": "m"}
+    )
+    u_max: PositiveFloat = Field(
+        1.0,
+        description="Bound on each velocity component: |u_x|, |u_y| ≤ u_max.",
+        json_schema_extra={"unit": "m/s"},
+    )
+
+
+class MotionSpec(Strict):
+    """Base of a target motion's parameters; ``type`` selects the motion by its registered name
+    (:mod:`resilient_tracking.world.target_motion`)."""
+
+    type: str = Field(description="Selects the motion: a registered name or package.module:Class.")
+
+
+class ConstantVelocity(MotionSpec):
+    """Straight line at a constant velocity."""
+
+    type: Literal["constant_velocity"] = Field(description="Selects this motion.")
+    velocity: Vec2 = Field(
+        ..., description="Constant velocity [v_x, v_y].", json_schema_extra={"unit": "m/s"}
+    )
+
+
+class Waypoints(MotionSpec):
+    """Straight segments through points at a constant speed."""
+
+    type: Literal["waypoints"] = Field(description="Selects this motion.")
+    points: list[Vec2] = Field(
+        min_length=1,
+        description="Visited in order along straight segments, starting from start.",
+        json_schema_extra={"unit": "m"},
+    )
+    speed: PositiveFloat = Field(
+        ..., description="Constant speed along the path.", json_schema_extra={"unit": "m/s"}
+    )
+    loop: bool = Field(
+        False,
+        description=(
+            "After the last point, head back to the first and repeat; otherwise stop at the last "
+            "point."
+        ),
+    )
+
+
+class Circle(MotionSpec):
+    """Circle around ``center`` through the start point; positive ``angular_speed`` is CCW."""
+
+    type: Literal["circle"] = Field(description="Selects this motion.")
+    center: Vec2 = Field(
+        ...,
+        description=(
+            "Center of the circle; the radius is the distance from start, which must not be 0."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    angular_speed: float = Field(
+        ...,
+        description="Positive: counter-clockwise, negative: clockwise, 0: still.",
+        json_schema_extra={"unit": "rad/s"},
+    )
+
+
+class NoisyConstantVelocity(MotionSpec):
+    """Nearly-constant-velocity truth: white acceleration noise of ``accel_std`` per axis."""
+
+    type: Literal["ncv"] = Field(description="Selects this motion.")
+    velocity: Vec2 = Field(
+        (0.0, 0.0), description="Initial velocity.", json_schema_extra={"unit": "m/s"}
+    )
+    accel_std: float = Field(
+        0.1,
+        ge=0,
+        description=(
+            "Standard deviation of the white acceleration noise per axis; 0 gives constant "
+            "velocity."
+        ),
+        json_schema_extra={"unit": "m/s²"},
+    )
+
+
+#: A target's motion: the ``Spec`` of the motion its ``type`` names.
+TargetMotion = Annotated[
+    SerializeAsAny[MotionSpec],
+    plugin_spec("resilient_tracking.world.target_motion:MOTIONS", "type"),
+]
+
+
+class TargetSpec(Strict):
+    """One target: its true start position and scripted motion."""
+
+    start: Vec2 = Field(
+        ...,
+        description="Initial true position, inside the workspace.",
+        json_schema_extra={"unit": "m"},
+    )
+    motion: TargetMotion = Field(..., description="Scripted true motion, selected by its type.")
+
+
+# ---------------------------------------------------------------------------- sensing, estimation
+
+
+class SensorChannel(Strict):
+    """One channel: inverse variance ``peak · exp(−shape · d)``."""
+
+    peak: PositiveFloat = Field(
+        15.0,
+        description="Inverse variance at distance 0 (m⁻² for range, rad⁻² for bearing).",
+        json_schema_extra={"unit": "1/variance"},
+    )
+    shape: float = Field(
+        0.2,
+        ge=0,
+        description="Decay rate of the information with distance; 0: independent of distance.",
+        json_schema_extra={"unit": "1/m"},
+    )
+
+
+class SensorSpec(Strict):
+    """The robots' range-bearing sensor (paper eq. 2): noise per channel and an optional maximum
+    range."""
+
+    range: SensorChannel = Field(SensorChannel(), description="Noise of the range measurement.")
+    bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
+    max_range: PositiveFloat | None = Field(
+        None,
+        description="Targets farther than this are not measured; null: no limit.",
+        json_schema_extra={"unit": "m"},
+    )
+
+
+class EstimatorSpec(Strict):
+    """The robots' target model (nearly constant velocity) and initial uncertainty."""
+
+    accel_std: float = Field(
+        0.2,
+        gt=0,
+        description="White-acceleration noise of the EKF's process model, per axis.",
+        json_schema_extra={"unit": "m/s²"},
+    )
+    initial_position_std: PositiveFloat = Field(
+        0.5,
+        description=(
+            "Initial position uncertainty per axis (the initial estimate is drawn with it)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    initial_velocity_std: PositiveFloat = Field(
+        0.3, description="Initial velocity uncertainty per axis.", json_schema_extra={"unit": "m/s"}
+    )

@@ -1,0 +1,166 @@
+"""Danger zones of a scenario: their hazard models, and the sensing and communication zones
+(paper eq. 4-5)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import (
+    Field,
+    SerializeAsAny,
+    field_validator,
+)
+
+from resilient_tracking.scenario.base import (
+    MAX_VARIANCE,
+    MIN_COVARIANCE_RATIO,
+    MIN_VARIANCE,
+    Matrix2,
+    PositiveFloat,
+    Strict,
+    Vec2,
+    plugin_spec,
+)
+
+# ---------------------------------------------------------------------------- danger zones
+
+
+class HazardSpec(Strict):
+    """Base of a hazard model's parameters; ``model`` selects the model by its registered name
+    (:mod:`resilient_tracking.world.hazard_model`)."""
+
+    model: str = Field(
+        description="Selects the hazard model: a registered name or package.module:Class."
+    )
+
+
+class GaussianHazard(HazardSpec):
+    """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (docs/model.md §2)."""
+
+    model: Literal["gaussian"] = Field(description="Selects this hazard model.")
+    f_act: PositiveFloat = Field(
+        1.0, description="Activation frequency of the zone.", json_schema_extra={"unit": "Hz"}
+    )
+    kappa: PositiveFloat = Field(
+        1.0,
+        description="Intensity κ, multiplying a density in m⁻².",
+        json_schema_extra={"unit": "m²"},
+    )
+
+
+class DiskHazard(HazardSpec):
+    """Hit with probability ``p_hit`` at each activation tick while inside the true disk."""
+
+    model: Literal["disk"] = Field(description="Selects this hazard model.")
+    f_act: PositiveFloat = Field(
+        1.0, description="Activation frequency of the zone.", json_schema_extra={"unit": "Hz"}
+    )
+    p_hit: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Hit probability per activation tick while inside the true disk.",
+    )
+
+
+#: A zone's hazard: the ``Spec`` of the hazard model its ``model`` names.
+Hazard = Annotated[
+    SerializeAsAny[HazardSpec],
+    plugin_spec("resilient_tracking.world.hazard_model:HAZARDS", "model"),
+]
+
+
+def _check_covariance(value: Matrix2) -> Matrix2:
+    m = np.asarray(value, dtype=float)
+    if np.abs(m).max() > MAX_VARIANCE:
+        raise ValueError(f"entries must not exceed {MAX_VARIANCE:g} in magnitude")
+    if not np.allclose(m, m.T, rtol=0, atol=1e-12):
+        raise ValueError("must be symmetric")
+    eig = np.linalg.eigvalsh(m)
+    if eig.min() <= 0:
+        raise ValueError("must be positive definite")
+    if eig.min() < MIN_VARIANCE:
+        raise ValueError(
+            f"is too small: its smallest eigenvalue {eig.min():.3g} m² is below {MIN_VARIANCE:g} "
+            "m², where the Gaussian density of the zone center is no longer a finite number"
+        )
+    if eig.min() < MIN_COVARIANCE_RATIO * eig.max():
+        raise ValueError(
+            f"is too close to singular (eigenvalue ratio {eig.min() / eig.max():.3g} is below "
+            f"{MIN_COVARIANCE_RATIO:g})"
+        )
+    sym = m / 2 + m.T / 2
+    return ((sym[0, 0], sym[0, 1]), (sym[1, 0], sym[1, 1]))
+
+
+class ZoneBase(Strict):
+    """Fields every danger zone has: the prior ``N(μ, Σ)`` its true center is drawn from each
+    episode (paper eq. 4), how attacks are drawn, what they do and where a temporary failure
+    ends."""
+
+    name: str | None = Field(None, description="Label for plots and logs.")
+    mu: Vec2 = Field(
+        ..., description="Prior mean μ of the zone center.", json_schema_extra={"unit": "m"}
+    )
+    sigma: Matrix2 = Field(
+        ...,
+        description=(
+            "Prior covariance Σ of the zone center: symmetric, positive definite, not nearly "
+            "singular."
+        ),
+        json_schema_extra={"unit": "m²"},
+    )
+    persistence: Literal["temporary", "permanent"] = Field(
+        "temporary",
+        description=(
+            "What a hazard attack from this zone does: a temporary failure ends once the robot "
+            "leaves the influence region; a permanent one never ends."
+        ),
+    )
+    hazard: Hazard = Field(
+        GaussianHazard(model="gaussian"),
+        description="How attacks are drawn, selected by its model.",
+    )
+    m_recover: PositiveFloat = Field(
+        2.0,
+        description=(
+            "Size of the influence region (x − μ)ᵀ Σ⁻¹ (x − μ) ≤ m_recover², out of which a "
+            "temporary failure ends."
+        ),
+        json_schema_extra={"unit": "Mahalanobis"},
+    )
+
+    _sigma_ok = field_validator("sigma")(_check_covariance)
+
+
+class SensingZone(ZoneBase):
+    """A sensing danger zone (paper eq. 4): a disk of radius ``r`` around its true center; an attack
+    disables the robot's sensor."""
+
+    kind: Literal["sensing"] = Field(description="An attack disables the robot's sensor.")
+    radius: PositiveFloat = Field(
+        ...,
+        description="Radius r of the zone's disk around its true center.",
+        json_schema_extra={"unit": "m"},
+    )
+
+
+class CommZone(ZoneBase):
+    """A comm danger zone (paper eq. 5): an attack disables the robot's radio, and its jammer cuts a
+    link when a robot is within ``δ2`` times the link length of the true center."""
+
+    kind: Literal["comm"] = Field(
+        description="An attack disables the robot's radio; the zone also jams links."
+    )
+    delta2: PositiveFloat = Field(
+        ...,
+        description=(
+            "Jammer strength δ2: a link is cut when a robot is within δ2 times the link length of"
+            " the true center."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
+
+
+Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]
