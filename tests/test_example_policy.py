@@ -91,6 +91,10 @@ def test_runs_by_dotted_path_with_its_parameters(with_example: Path, tmp_path: P
     manifest = json.loads((tmp_path / "P" / "manifest.json").read_text())
     assert manifest["policy"] == "greedy_tracker.policy:GreedyPolicy"
     assert manifest["steps"] == 15
+    # the default run folder names the policy portably (no colon from the dotted path)
+    run_checked([rtrack, "run", "greedy.yaml", "--no-figures", "-q"], tmp_path, _env())
+    (default,) = (tmp_path / "runs").iterdir()
+    assert "greedy_tracker.policy_GreedyPolicy" in default.name and ":" not in default.name
     (tmp_path / "bad.yaml").write_text(SCENARIO.replace("gain: 0.8", "gain: -1"))
     done = subprocess.run(
         [rtrack, "validate", "bad.yaml"], cwd=tmp_path, env=_env(), capture_output=True, text=True

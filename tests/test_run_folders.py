@@ -141,3 +141,10 @@ def test_the_lock_is_reentrant_within_a_process(tmp_path):
     with folders.folder_lock(out):
         write_run(tiny_result(), out)
     assert not Path(tmp_path / ".run.lock").exists()
+
+
+def test_folder_names_from_labels_are_portable():
+    assert folders.folder_name("ours-risky") == "ours-risky"
+    assert folders.folder_name("pkg.module:Class") == "pkg.module_Class"
+    assert folders.folder_name("a/b\\c d") == "a_b_c_d"
+    assert folders.folder_name("") == "_"

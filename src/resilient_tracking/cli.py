@@ -14,6 +14,7 @@ from tqdm import tqdm
 
 from resilient_tracking import __version__, interrupts
 from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError
+from resilient_tracking.sim.folders import folder_name
 
 #: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
 MAX_SEEDS = 1000
@@ -111,7 +112,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
-    out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}")
+    out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}")
     with contextlib.ExitStack() as held:
         try:  # before the episode: a refused folder costs no run
             held.enter_context(folder_lock(out))
@@ -348,7 +349,7 @@ def cmd_node(args: argparse.Namespace) -> int:
         print(f"error: --policy: {why}", file=sys.stderr)
         return 1
     policy = args.policy or scenario.policy.name
-    out = Path(args.out or f"runs/{scenario.name}-{policy}-seed{seed}-ros2")
+    out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
     if out.exists() and not is_run_folder(out):
         print(f"error: --out: {out} exists and is not a run folder", file=sys.stderr)
         return 1

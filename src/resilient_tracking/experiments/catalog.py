@@ -25,6 +25,7 @@ import yaml
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.generator import SUITE_SEED, suite
 from resilient_tracking.scenario import Scenario, parse_scenario
+from resilient_tracking.sim.folders import folder_name
 
 
 def default_scenario_dir() -> Path:
@@ -90,7 +91,9 @@ class Task:
     @property
     def run_id(self) -> str:
         """The run's path under ``OUT/runs``: ``experiment/variant/seed-NNN``."""
-        return f"{self.experiment}/{self.variant.label}/seed-{self.seed:03d}"
+        return (
+            f"{folder_name(self.experiment)}/{folder_name(self.variant.label)}/seed-{self.seed:03d}"
+        )
 
     @property
     def fingerprint(self) -> str:

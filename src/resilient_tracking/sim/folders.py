@@ -45,6 +45,17 @@ class FolderBusyError(RuntimeError):
     """Another process is writing the same folder."""
 
 
+#: Characters a folder name built from a label keeps; any other becomes ``_``.
+_UNPORTABLE = re.compile(r"[^A-Za-z0-9._-]")
+
+
+def folder_name(label: str) -> str:
+    """``label`` as one portable folder name: a policy named by its class,
+    ``pkg.module:Class``, becomes ``pkg.module_Class`` (a colon is not allowed in a Windows
+    path, and a slash would nest folders)."""
+    return _UNPORTABLE.sub("_", label) or "_"
+
+
 def sha256_of(path: Path) -> str:
     """Hex SHA-256 of a file's bytes (read in 1 MiB blocks)."""
     digest = hashlib.sha256()
