@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import shutil
+import subprocess
+import sys
 
 import pandas as pd
 import yaml
@@ -73,3 +75,21 @@ def test_run_writes_tables_manifest_and_figures(tmp_path, capsys):
     assert len(pd.read_parquet(out / "team.parquet")) == 30
     assert len(list((out / "figures").glob("*.png"))) >= 2
     assert "wrote" in capsys.readouterr().out
+
+
+def test_library_warnings_are_shown_only_with_verbose():
+    """A library's warning (joblib's "a worker stopped"…) is for developers: `-v` shows it."""
+    code = (
+        "import sys, warnings; from resilient_tracking import cli; "
+        "cli.cmd_validate = lambda args: (warnings.warn('library noise', UserWarning), 0)[1]; "
+        "sys.exit(cli.main(sys.argv[1:]))"
+    )
+    quiet = subprocess.run(
+        [sys.executable, "-c", code, "validate", "x.yaml"], capture_output=True, text=True
+    )
+    loud = subprocess.run(
+        [sys.executable, "-c", code, "-v", "validate", "x.yaml"], capture_output=True, text=True
+    )
+    assert quiet.returncode == loud.returncode == 0, quiet.stderr + loud.stderr
+    assert "library noise" not in quiet.stderr + quiet.stdout
+    assert "library noise" in loud.stderr

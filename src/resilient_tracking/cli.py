@@ -553,6 +553,10 @@ def main(argv: list[str] | None = None) -> int:
         args.argv = given[given.index("reproduce") + 1 :]
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    # libraries' warnings (e.g. joblib's "a worker stopped") are for developers: through
+    # logging, shown with -v only
+    logging.captureWarnings(True)
+    logging.getLogger("py.warnings").setLevel(logging.WARNING if args.verbose else logging.ERROR)
     if args.verbose == 0:
         # Dask's scheduler and workers (child processes too) log at INFO by default
         os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
