@@ -204,9 +204,7 @@ def test_without_faults_the_same_episode_has_no_fallback(spy):
     """The injector itself adds no fallback. On the one-step program this episode has none;
     the route program hands a few solves of it from the SQP to IPOPT (counted in
     benchmarks/programs.py), which would hide what this test checks."""
-    scenario = shipped("combined-perm").with_overrides(
-        steps=150, planner={"program": "one_step"}
-    )
+    scenario = shipped("combined-perm").with_overrides(steps=150, planner={"program": "one_step"})
     injector = FaultInjector(probability=0.0, seed=2)
     result = run_episode(scenario, seed=2, fault_hook=injector)
     assert injector.summary()["attempts"] > 0 and injector.injected == 0
