@@ -273,3 +273,31 @@ def test_a_background_writer_writes_the_newest_message_and_drops_stale_ones():
     slow.gate.set()
     out.close()
     assert slow.written == ["first", "newest"] and out.dropped == 1
+
+
+def test_a_background_writer_builds_messages_in_its_thread_and_reports_them():
+    from resilient_tracking.ros2.transport import BackgroundWriter
+
+    written = threading.Event()
+
+    class Sink:
+        def __init__(self):
+            self.written = []
+
+        def write(self, msg):
+            self.written.append(msg)
+            written.set()
+
+    sink, built_in, recorded = Sink(), [], []
+
+    def build():
+        built_in.append(threading.current_thread().name)
+        return "markers"
+
+    out = BackgroundWriter(sink, "markers-thread", recorded.append)  # type: ignore[arg-type]
+    out.write(build)
+    assert written.wait(10)
+    out.write(lambda: 1 / 0)  # a broken build is logged, never raised into the loop
+    out.close()
+    assert sink.written == recorded == ["markers"]
+    assert built_in == ["markers-thread"] and out.dropped == 0

@@ -8,6 +8,7 @@ definitions (:data:`~resilient_tracking.ros2.msgs.MSG_DEFINITIONS`).
 from __future__ import annotations
 
 import logging
+import threading
 from pathlib import Path
 
 from cyclonedds.idl import IdlStruct
@@ -33,7 +34,8 @@ def typestore() -> Typestore:
 
 
 class BagRecorder:
-    """Writes every message handed to :meth:`write` into a new bag folder ``path``."""
+    """Writes every message handed to :meth:`write` into a new bag folder ``path`` (from any
+    thread: the belief markers of a free-running node are recorded from their writer's)."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -43,20 +45,24 @@ class BagRecorder:
         self._writer = Writer(self.path, version=8)
         self._writer.open()
         self._connections: dict[str, object] = {}
+        self._lock = threading.Lock()
         self.count = 0
 
     def write(self, ros_topic: str, msg: IdlStruct, timestamp_ns: int) -> None:
         """Write ``msg`` of the ROS 2 topic ``ros_topic`` at ``timestamp_ns`` (ns), registering the
         topic's connection with its first message."""
         topic = "/" + dds_topic(ros_topic).removeprefix("rt/")
-        if topic not in self._connections:
-            self._connections[topic] = self._writer.add_connection(
-                topic, ros_name(type(msg)), typestore=self._store
-            )
-        self._writer.write(self._connections[topic], timestamp_ns, msg.serialize())  # type: ignore[arg-type]
-        self.count += 1
+        data = msg.serialize()
+        with self._lock:
+            if topic not in self._connections:
+                self._connections[topic] = self._writer.add_connection(
+                    topic, ros_name(type(msg)), typestore=self._store
+                )
+            self._writer.write(self._connections[topic], timestamp_ns, data)  # type: ignore[arg-type]
+            self.count += 1
 
     def close(self) -> None:
         """Close the bag and log how many messages it holds."""
-        self._writer.close()
+        with self._lock:
+            self._writer.close()
         log.info("bag %s: %d messages", self.path, self.count)

@@ -5,12 +5,19 @@ Namespaces: ``targets`` (estimated positions), ``covariance`` (2-sigma position 
 around the estimated centre)
 and ``robots`` (each robot's mode as text above it). Every array starts with a DELETEALL so
 markers of zones or leagues that no longer exist disappear.
+
+Building the messages takes a few milliseconds at 10×10, so a free-running node copies what
+they show out of the belief (:class:`BeliefView`, cheap) on its control path and builds them
+(:func:`markers_of`) in a worker thread.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from resilient_tracking.belief.knowledge import ZoneEstimate
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.ros2 import msgs
 
@@ -37,6 +44,31 @@ def _outline(points: np.ndarray, z: float) -> list[msgs.Point]:
     return [msgs.Point(float(x), float(y), z) for x, y in points]
 
 
+@dataclass(frozen=True)
+class BeliefView:
+    """What the markers show, copied out of the belief: the team estimate's positions and
+    position covariances, the zones any robot knows, and each robot's position and mode."""
+
+    means: np.ndarray
+    covs: np.ndarray
+    zones: tuple[ZoneEstimate, ...]
+    positions: np.ndarray
+    modes: tuple[str, ...]
+
+    @classmethod
+    def of(cls, belief: TeamBelief, positions: np.ndarray, modes: list[str]) -> BeliefView:
+        """A copy of what :func:`markers_of` needs from ``belief`` now."""
+        estimate = belief.team_estimate()
+        known = {key: z for kb in belief.knowledge for key, z in kb.zones.items()}
+        return cls(
+            means=np.array(estimate.mean[:, :2], dtype=float),
+            covs=np.array(estimate.cov[:, :2, :2], dtype=float),
+            zones=tuple(zone for _, zone in sorted(known.items())),
+            positions=np.array(positions, dtype=float),
+            modes=tuple(modes),
+        )
+
+
 def belief_markers(
     belief: TeamBelief,
     positions: np.ndarray,
@@ -44,8 +76,13 @@ def belief_markers(
     header: msgs.Header,
     altitude: float,
 ) -> msgs.MarkerArray:
-    """RViz markers of the team's belief: each target estimate with its covariance ellipse, each
-    known zone, and each robot's index and mode as text at ``altitude`` (m); the first marker
+    """RViz markers of the team's belief now (:class:`BeliefView` then :func:`markers_of`)."""
+    return markers_of(BeliefView.of(belief, positions, modes), header, altitude)
+
+
+def markers_of(view: BeliefView, header: msgs.Header, altitude: float) -> msgs.MarkerArray:
+    """RViz markers of ``view``: each target estimate with its covariance ellipse, each known
+    zone, and each robot's index and mode as text at ``altitude`` (m); the first marker
     deletes the previous set."""
     markers = [msgs.Marker(header=header, action=msgs.DELETEALL)]
 
@@ -54,8 +91,7 @@ def belief_markers(
             msgs.Marker(header=header, ns=ns, id=len(markers), type=kind, action=msgs.ADD, **fields)  # type: ignore[arg-type]
         )
 
-    estimate = belief.team_estimate()
-    for mean, cov in zip(estimate.mean, estimate.cov, strict=True):
+    for mean, cov in zip(view.means, view.covs, strict=True):
         add(
             "targets",
             msgs.SPHERE,
@@ -66,12 +102,11 @@ def belief_markers(
         add(
             "covariance",
             msgs.LINE_STRIP,
-            points=_outline(ellipse_points(mean[:2], cov[:2, :2]), 0.0),
+            points=_outline(ellipse_points(mean, cov), 0.0),
             scale=msgs.Vector3(0.02, 0.0, 0.0),
             color=_COLORS["covariance"],
         )
-    known = {key: z for kb in belief.knowledge for key, z in kb.zones.items()}
-    for _, zone in sorted(known.items()):
+    for zone in view.zones:
         radius = zone.size if zone.kind == "sensing" else 0.3
         circle = ellipse_points(zone.mean, np.eye(2) * radius**2, n_std=1.0)
         add(
@@ -82,7 +117,7 @@ def belief_markers(
             color=_COLORS[zone.kind],
             text=zone.key,
         )
-    for robot, (xy, mode) in enumerate(zip(positions, modes, strict=True)):
+    for robot, (xy, mode) in enumerate(zip(view.positions, view.modes, strict=True)):
         add(
             "robots",
             msgs.TEXT_VIEW_FACING,

@@ -16,6 +16,7 @@ import logging
 import os
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
@@ -156,25 +157,34 @@ def take(reader: DataReader, limit: int = 256) -> list[Any]:
 
 
 class BackgroundWriter:
-    """Writes messages from a worker thread, keeping only the newest one waiting.
+    """Builds and writes messages from a worker thread, keeping only the newest one waiting.
 
-    For visualization topics on a control loop: serializing a large message (a belief
-    ``MarkerArray`` at 10×10 takes about 14 ms in cyclonedds' Python serializer) then happens
-    while the loop waits for its next period, not between an observation and its setpoints.
-    A message not yet written when a newer one arrives is dropped.
+    For visualization topics on a control loop: building a belief ``MarkerArray`` at 10×10
+    takes a few milliseconds and serializing it about 14 ms in cyclonedds' Python serializer;
+    both then happen while the loop waits for its next period, not between an observation and
+    its setpoints. :meth:`write` takes a message, or a function that builds one from data the
+    caller copied; a message not yet written when a newer one arrives is dropped.
+    ``on_written`` is called with each message written (e.g. to record it in a bag).
     """
 
-    def __init__(self, writer: DataWriter, name: str = "rtrack-writer"):
+    def __init__(
+        self,
+        writer: DataWriter,
+        name: str = "rtrack-writer",
+        on_written: Callable[[IdlStruct], object] | None = None,
+    ):
         self._writer = writer
+        self._on_written = on_written
         self._ready = threading.Condition()
-        self._pending: IdlStruct | None = None
+        self._pending: IdlStruct | Callable[[], IdlStruct] | None = None
         self._closed = False
         self.dropped = 0
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
-    def write(self, msg: IdlStruct) -> None:
-        """Hand ``msg`` over for writing (replacing one still waiting)."""
+    def write(self, msg: IdlStruct | Callable[[], IdlStruct]) -> None:
+        """Hand ``msg`` (or a function building it) over for writing, replacing one still
+        waiting."""
         with self._ready:
             if self._pending is not None:
                 self.dropped += 1
@@ -195,8 +205,11 @@ class BackgroundWriter:
                     self._ready.wait()
                 if self._pending is None:
                     return
-                msg, self._pending = self._pending, None
+                pending, self._pending = self._pending, None
             try:
+                msg = pending() if callable(pending) else pending
                 self._writer.write(msg)
+                if self._on_written is not None:
+                    self._on_written(msg)
             except Exception as err:  # a visualization topic must not stop the loop
-                log.warning("writing %s failed: %s", type(msg).__name__, err)
+                log.warning("building or writing a message failed: %s: %s", type(err).__name__, err)
