@@ -29,6 +29,32 @@ def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
         )
 
 
+def test_setup_runs_before_the_first_step_with_the_episodes_world_and_team():
+    """A team that knows the zone from the start (seeded in ``setup``) keeps clear of it from
+    step 0, so it is attacked less than the team that learns it by being attacked."""
+    from resilient_tracking.belief.knowledge import ZoneEstimate
+
+    scenario = shipped("sensing-temp").with_overrides(steps=150)
+    calls = []
+
+    def know_the_zone(world, team):
+        calls.append(len(team.belief.knowledge))
+        for zone in world.zones:
+            for robot in range(world.n_robots):
+                team.belief.knowledge[robot].learn(ZoneEstimate.from_clue(zone.clue(), 0))
+
+    attacks = {}
+    for seed in (1, 2, 3):
+        learned = run_episode(scenario, seed=seed)
+        known = run_episode(scenario, seed=seed, setup=know_the_zone)
+        attacks[seed] = (
+            (learned["robots"]["sensing_ok"] == 0).sum(),
+            (known["robots"]["sensing_ok"] == 0).sum(),
+        )
+    assert calls == [3, 3, 3]
+    assert sum(k for _, k in attacks.values()) < sum(lr for lr, _ in attacks.values()), attacks
+
+
 def test_records_have_the_documented_shape():
     scenario = shipped("comm-temp").with_overrides(steps=40)
     result = run_episode(scenario, seed=1)

@@ -25,27 +25,21 @@ from comeback_table import SIX, seed_range  # tools/ is on the path when run as 
 from resilient_tracking import scenarios
 from resilient_tracking.belief.knowledge import ZoneEstimate
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.sim.episode import EpisodeRecorder, build_team
+from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.team import Team
 from resilient_tracking.world import World
 
 
 def episode(scenario: Scenario, seed: int, known: bool) -> tuple[float, int]:
     """Last-third mean trace and robots attacked of one failure-aware run."""
-    world = World(scenario, seed)
-    team = build_team(scenario, "failure_aware", seed, world.target_states)
-    if known:
+
+    def know_every_zone(world: World, team: Team) -> None:
         for zone in world.zones:
             estimate = ZoneEstimate.from_clue(zone.clue(), 0)
             for robot in range(world.n_robots):
                 team.belief.knowledge[robot].learn(estimate)
-    recorder = EpisodeRecorder(world.n_robots, len(world.targets), world.zones, scenario.steps)
-    for _ in range(scenario.steps):
-        obs = world.observe()
-        truth = world.target_states
-        out = team.step(obs)
-        applied = world.step(out.controls)
-        recorder.step(obs, out, applied, truth, team)
-    result = recorder.result({})
+
+    result = run_episode(scenario, "failure_aware", seed, setup=know_every_zone if known else None)
     trace = result["team"]["trace"].to_numpy()
     robots = result["robots"]
     hit = robots.groupby("robot")[["sensing_ok", "comm_ok"]].min()

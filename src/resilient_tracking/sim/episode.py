@@ -239,16 +239,21 @@ def run_episode(
     seed: int | None = None,
     progress: Callable[[int], object] | None = None,
     fault_hook: FaultHook | None = None,
+    setup: Callable[[World, Team], object] | None = None,
 ) -> EpisodeResult:
     """Run one episode; ``progress`` is called with the number of steps done.
 
-    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`).
+    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`);
+    ``setup`` is called with the world and the team before the first step (a study may seed
+    the team's knowledge there, as ``tools/known_zones_reference.py`` does).
     """
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
     world = World(scenario, seed)
     team = build_team(scenario, policy_name, seed, world.target_states, fault_hook)
+    if setup is not None:
+        setup(world, team)
     recorder = EpisodeRecorder(world.n_robots, len(world.targets), world.zones, scenario.steps)
     for _ in range(scenario.steps):
         obs = world.observe()
