@@ -301,3 +301,19 @@ def test_a_background_writer_builds_messages_in_its_thread_and_reports_them():
     out.close()
     assert sink.written == recorded == ["markers"]
     assert built_in == ["markers-thread"] and out.dropped == 0
+
+
+def test_the_free_running_loop_freezes_the_heap_and_always_unfreezes_it():
+    import gc
+
+    from resilient_tracking.ros2.tracker_node import _frozen_heap
+
+    kept = [object() for _ in range(10)]
+    with _frozen_heap(True):
+        assert gc.get_freeze_count() >= len(kept)
+    assert gc.get_freeze_count() == 0
+    with pytest.raises(RuntimeError), _frozen_heap(True):
+        raise RuntimeError("the loop failed")
+    assert gc.get_freeze_count() == 0
+    with _frozen_heap(False):
+        assert gc.get_freeze_count() == 0

@@ -12,10 +12,9 @@ from resilient_tracking.planning.layout import Slots
 METHODS = ("sqp", "ipopt")
 
 #: Options of both solvers: nothing uses ``lam_p`` (∂L/∂p), which costs a reverse sweep over
-#: the whole problem after each solve (≈ 0.4 ms at 20×20).
-#: ``no_nlp_grad``: the multipliers of ``p`` (``calc_lam_p``) are never asked for, so the solver
-#: need not build the Lagrangian's gradient function, which CasADi otherwise derives by
-#: reverse AD at every solver creation (about 0.05-0.2 s at 20x20, 1-13 ms without).
+#: the whole problem after each solve (≈ 0.4 ms at 20×20); and so the solver need not build
+#: the Lagrangian's gradient function either (``no_nlp_grad``), which CasADi otherwise derives
+#: by reverse AD at every solver creation (0.05-0.5 s at 20×20; 1-13 ms without).
 COMMON_OPTIONS: dict[str, Any] = {
     "print_time": False,
     "error_on_fail": False,

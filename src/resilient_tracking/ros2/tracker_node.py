@@ -16,12 +16,13 @@ In lock-step the observation of step ``k`` is paired with the poses stamped with
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import logging
 import threading
 import time
 from collections import OrderedDict, deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 from cyclonedds.idl import IdlStruct
@@ -56,6 +57,24 @@ from resilient_tracking.world.world import clip_velocities, make_zones
 log = logging.getLogger(__name__)
 
 _POSES_KEPT = 64  # poses remembered per body for lock-step pairing
+
+
+@contextlib.contextmanager
+def _frozen_heap(enabled: bool) -> Iterator[None]:
+    """Keep what exists now out of the garbage collector's sight while the block runs.
+
+    A full collection over everything a planner holds (problems, solvers, the warm-up's run)
+    paused a 10×10 tick for about 50 ms; frozen, the collector looks only at what the loop
+    creates. Leftovers are collected first, and the heap is unfrozen afterwards."""
+    if not enabled:
+        yield
+        return
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 class _Body:
@@ -157,13 +176,28 @@ class TrackerNode:
         observation came for ``give_up`` seconds.
         """
         s = self.settings
-        if not s.lockstep:
-            # what exists now (problems, solvers, the warm-up's leftovers collected first) is
-            # kept out of the collector's sight: a full collection over it paused a 10×10 tick
-            # for ~50 ms; the loop's own short-lived objects are still collected
-            gc.collect()
-            gc.freeze()
         started = time.perf_counter()
+        with _frozen_heap(not s.lockstep):
+            self._loop(stop, progress)
+        wall = time.perf_counter() - started
+        if self.planner is not None:
+            self.planner.close()
+        if self._belief_out is not None:
+            self._belief_out.close()
+        manifest = episode_manifest(self.scenario, self.seed, self.policy, self.steps_done, wall)
+        manifest["transport"] = {
+            "kind": "ros2-dds",
+            "lockstep": s.lockstep,
+            "command": s.command,
+            "holds": self.holds,
+            "dropped_messages": self.dropped,
+            # belief marker sets replaced by a newer one before they were written (free running)
+            "markers_dropped": self._belief_out.dropped if self._belief_out is not None else 0,
+        }
+        return self.recorder.result(manifest)
+
+    def _loop(self, stop: threading.Event | None, progress: Callable[[int], object] | None) -> None:
+        s = self.settings
         last_obs = time.monotonic()
         last_hold = -np.inf
         while self.steps_done < self.scenario.steps and not (stop is not None and stop.is_set()):
@@ -182,24 +216,6 @@ class TrackerNode:
             if silent > s.observation_timeout and now - last_hold >= self.dt:
                 self.hold(f"no observation for {silent:.1f} s (is the world node running?)")
                 last_hold = now
-        wall = time.perf_counter() - started
-        if not s.lockstep:
-            gc.unfreeze()
-        if self.planner is not None:
-            self.planner.close()
-        if self._belief_out is not None:
-            self._belief_out.close()
-        manifest = episode_manifest(self.scenario, self.seed, self.policy, self.steps_done, wall)
-        manifest["transport"] = {
-            "kind": "ros2-dds",
-            "lockstep": s.lockstep,
-            "command": s.command,
-            "holds": self.holds,
-            "dropped_messages": self.dropped,
-            # belief marker sets replaced by a newer one before they were written (free running)
-            "markers_dropped": self._belief_out.dropped if self._belief_out is not None else 0,
-        }
-        return self.recorder.result(manifest)
 
     def _drain(self, now: float) -> None:
         for body, reader in self._pose_readers:
