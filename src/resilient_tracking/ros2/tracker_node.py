@@ -65,7 +65,8 @@ def _frozen_heap(enabled: bool) -> Iterator[None]:
 
     A full collection over everything a planner holds (problems, solvers, the warm-up's run)
     paused a 10×10 tick for about 50 ms; frozen, the collector looks only at what the loop
-    creates. Leftovers are collected first, and the heap is unfrozen afterwards."""
+    creates. Leftovers are collected first, and the heap is unfrozen afterwards. Frozen objects
+    are still freed by reference counting; only cycles among them wait for the unfreeze."""
     if not enabled:
         yield
         return
