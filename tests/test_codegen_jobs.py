@@ -209,3 +209,24 @@ def test_folders_of_dead_jobs_are_removed_and_live_ones_kept(tmp_path):
     (tmp_path / "mine").mkdir()
     assert codegen.clean_dead_builds(tmp_path) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == [f"build-{os.getpid()}-abc", "mine"]
+
+
+def test_a_keyed_library_is_found_through_the_index_without_generating_code(cache, monkeypatch):
+    job = codegen.compile_functions(functions(), "idx", key="structure A")
+    assert job is not None and job.wait()
+
+    class NoCodegen:
+        def __init__(self, *args, **kwargs):
+            raise AssertionError("code generated although the index names the library")
+
+    monkeypatch.setattr(codegen.ca, "CodeGenerator", NoCodegen)
+    found = codegen.compile_functions(functions(), "idx", key="structure A")
+    assert found is not None and found.library == job.library and found.ready()
+    assert float(found.load()["f"]([1, 2, 3])[0]) == pytest.approx(14 + 0.8414709848)
+    # another key, a damaged library, or other sources: the index is not trusted
+    assert codegen.compile_functions(functions(), "idx", key="structure B") is None
+    Path(f"{job.library}.sha256").write_text("0\n")
+    assert codegen.compile_functions(functions(), "idx", key="structure A") is None
+    Path(f"{job.library}.sha256").write_text(codegen._sha256(job.library) + "\n")
+    monkeypatch.setattr(codegen, "source_version", lambda: "edited sources")
+    assert codegen.compile_functions(functions(), "idx", key="structure A") is None

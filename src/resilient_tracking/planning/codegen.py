@@ -26,12 +26,19 @@ folder under the cache directory, and
 
 The cache is kept under ``$RTRACK_CACHE_MAX_MB`` (default 2048) by deleting the least recently
 used libraries after each build.
+
+Finding a cached library by its source's hash means generating the source first: about 0.5 s
+at 10×10 in a few long CasADi calls that hold the interpreter (a running control loop stalls
+behind them). A caller that can name what defines its functions passes that as ``key``: an
+index (``index/HASH``, the hash of the key, the label and :func:`source_version`) then leads to
+the library without generating anything. A stale or missing entry only costs the generation.
 """
 
 from __future__ import annotations
 
 import atexit
 import contextlib
+import functools
 import hashlib
 import logging
 import os
@@ -357,12 +364,63 @@ def clean_dead_builds(directory: Path) -> int:
     return removed
 
 
-def compile_functions(functions: dict[str, ca.Function], label: str) -> CompiledFunctions | None:
-    """Start compiling ``functions`` (or find them in the cache); None if codegen is off."""
+@functools.cache
+def source_version() -> str:
+    """A hash of this package's Python sources and of CasADi's version: with a caller's key,
+    what the generated code is a function of."""
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256(ca.CasadiMeta.version().encode())
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:20]
+
+
+def _index_entry(directory: Path, label: str, key: str) -> Path:
+    text = "\0".join((label, key, source_version()))
+    return directory / "index" / hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def _indexed(
+    directory: Path, label: str, key: str, names: dict[str, str]
+) -> CompiledFunctions | None:
+    """The intact cached library the index names for ``key``, or None."""
+    try:
+        library = directory / _index_entry(directory, label, key).read_text().strip()
+    except OSError:
+        return None
+    if library.parent != directory or not library.exists() or damage_of(library, names):
+        return None
+    with contextlib.suppress(OSError):
+        os.utime(library)  # its last use, for the least-recently-used pruning
+    return CompiledFunctions(names, library)
+
+
+def _index(directory: Path, label: str, key: str, library: Path) -> None:
+    entry = _index_entry(directory, label, key)
+    with contextlib.suppress(OSError):
+        entry.parent.mkdir(exist_ok=True)
+        spare = entry.with_name(f".{entry.name}.{os.getpid()}")
+        spare.write_text(library.name + "\n")
+        os.replace(spare, entry)
+
+
+def compile_functions(
+    functions: dict[str, ca.Function], label: str, key: str | None = None
+) -> CompiledFunctions | None:
+    """Start compiling ``functions`` (or find them in the cache); None if codegen is off.
+
+    ``key``, if given, must determine ``functions`` together with this package's sources (for
+    example the problem's structure and options): the cached library is then found through
+    the index without generating code."""
     if not enabled():
         return None
-    names = {key: f"{label}_{key}" for key in functions}
+    names = {name: f"{label}_{name}" for name in functions}
     directory = cache_dir()
+    if key is not None:
+        found = _indexed(directory, label, key, names)
+        if found is not None:
+            return found
     try:
         (directory / "slots").mkdir(parents=True, exist_ok=True)
         clean_dead_builds(directory)
@@ -372,10 +430,10 @@ def compile_functions(functions: dict[str, ca.Function], label: str) -> Compiled
         return None
     try:
         generator = ca.CodeGenerator(f"{label}.c", {"with_header": False})
-        for key, f in functions.items():
+        for name, f in functions.items():
             inputs = f.sx_in()
             generator.add(
-                ca.Function(names[key], inputs, f.call(inputs), f.name_in(), f.name_out())
+                ca.Function(names[name], inputs, f.call(inputs), f.name_in(), f.name_out())
             )
         generator.generate(str(workdir) + os.sep)
         source = workdir / f"{label}.c"
@@ -385,6 +443,8 @@ def compile_functions(functions: dict[str, ca.Function], label: str) -> Compiled
         shutil.rmtree(workdir, ignore_errors=True)
         return None
     library = directory / f"{label}_{digest}.so"
+    if key is not None:
+        _index(directory, label, key, library)
     if library.exists():
         damage = damage_of(library, names)
         if damage is None:

@@ -157,7 +157,11 @@ class LeagueProblem:
         key = (name, self._sqp_hessian)
         if key not in nlp.jobs:
             s = self.structure
-            nlp.jobs[key] = codegen.compile_functions(self._functions(method), f"{s.label}_{name}")
+            # what the functions are made of, to find their compiled library without codegen
+            defines = repr((s, self.margin, nlp.slots, method, self._sqp_hessian))
+            nlp.jobs[key] = codegen.compile_functions(
+                self._functions(method), f"{s.label}_{name}", defines
+            )
         return nlp.jobs[key]
 
     def _call(self, method: str) -> BufferedCall:
