@@ -230,3 +230,15 @@ def test_a_keyed_library_is_found_through_the_index_without_generating_code(cach
     Path(f"{job.library}.sha256").write_text(codegen._sha256(job.library) + "\n")
     monkeypatch.setattr(codegen, "source_version", lambda: "edited sources")
     assert codegen.compile_functions(functions(), "idx", key="structure A") is None
+
+
+def test_a_plug_in_module_is_keyed_by_its_own_source(tmp_path, monkeypatch):
+    module = tmp_path / "my_sensor.py"
+    module.write_text("class Sensor:\n    pass\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import my_sensor
+
+    before = codegen.module_digest(my_sensor.Sensor)
+    module.write_text("class Sensor:\n    noise = 2\n")
+    assert before is not None and codegen.module_digest(my_sensor.Sensor) != before
+    assert codegen.module_digest(int) is None  # built in: no source, so no index

@@ -376,6 +376,17 @@ def source_version() -> str:
     return digest.hexdigest()[:20]
 
 
+def module_digest(obj: object) -> str | None:
+    """A hash of the source file defining ``obj`` (a plug-in sensor model, say, whose code is
+    outside this package and so outside :func:`source_version`); None when it has none."""
+    module = sys.modules.get(getattr(obj, "__module__", ""))
+    try:
+        data = Path(getattr(module, "__file__", "") or "").read_bytes()
+    except OSError:
+        return None
+    return hashlib.sha256(data).hexdigest()[:20]
+
+
 def _index_entry(directory: Path, label: str, key: str) -> Path:
     text = "\0".join((label, key, source_version()))
     return directory / "index" / hashlib.sha256(text.encode()).hexdigest()[:24]

@@ -158,7 +158,13 @@ class LeagueProblem:
         if key not in nlp.jobs:
             s = self.structure
             # what the functions are made of, to find their compiled library without codegen
-            defines = repr((s, self.margin, nlp.slots, method, self._sqp_hessian))
+            # (the sensor model may be a plug-in: its own source counts too)
+            sensor = codegen.module_digest(s.sensor_model)
+            defines = (
+                repr((s, self.margin, nlp.slots, method, self._sqp_hessian, sensor))
+                if sensor is not None
+                else None
+            )
             nlp.jobs[key] = codegen.compile_functions(
                 self._functions(method), f"{s.label}_{name}", defines
             )
