@@ -25,11 +25,16 @@ from resilient_tracking.experiments.generalization import (
     win_rate,
 )
 from resilient_tracking.experiments.generator import (
+    MEET_EXPOSURE,
     MOTIONS,
     PEAK_RANGE,
     PLACEMENTS,
+    SUITE_SEED,
+    exposure,
     mean_path,
+    stored_suite,
     suite,
+    team_paths,
 )
 from resilient_tracking.experiments.summary import last_third_mean, stragglers
 from resilient_tracking.scenario import parse_scenario
@@ -37,14 +42,41 @@ from resilient_tracking.scenario import parse_scenario
 
 @pytest.fixture(scope="module")
 def full_suite():
-    return suite(n=SUITE_SIZE)
+    return stored_suite(SUITE_SIZE)
 
 
-def test_same_seed_same_suite_and_a_suite_is_a_prefix_of_a_longer_one():
-    first = [s.model_dump() for s in suite(seed=5, n=4)]
-    assert first == [s.model_dump() for s in suite(seed=5, n=4)]
-    assert first[:2] == [s.model_dump() for s in suite(seed=5, n=2)]
-    assert first != [s.model_dump() for s in suite(seed=6, n=4)]
+@pytest.fixture(scope="module")
+def drawn():
+    """Four scenarios drawn from seed 5."""
+    return suite(seed=5, n=4)
+
+
+def test_same_seed_same_suite_and_a_suite_is_a_prefix_of_a_longer_one(drawn):
+    first = [s.model_dump() for s in drawn]
+    assert first[:2] == [s.model_dump() for s in suite(seed=5, n=2)]  # drawn again: the same
+    assert first[:2] != [s.model_dump() for s in suite(seed=6, n=2)]
+
+
+def test_the_stored_suite_is_what_the_generator_draws():
+    # the generator runs the vanilla team, so a planner change can move the suite; then
+    # `python tools/generate_suite.py` writes it again (and the report must be re-made)
+    head = [s.model_dump() for s in suite(SUITE_SEED, 3)]
+    assert head == [s.model_dump() for s in stored_suite(3)]
+
+
+def test_the_zone_free_vanilla_team_meets_every_zone(drawn):
+    for s in drawn:
+        data = s.model_dump(mode="json")
+        paths = team_paths(data, s.name)
+        assert paths.shape == (s.steps, len(s.robots), 2)
+        for z in data["zones"]:
+            assert exposure(z, paths) >= MEET_EXPOSURE, (s.name, z["name"])
+    # the measure itself: a robot parked on a zone's centre for 10 steps, then far away
+    zone = drawn[0].zones[0].model_dump(mode="json")
+    peak_rate = exposure(zone, np.array([zone["mu"]]))
+    parked = np.array([zone["mu"]] * 10 + [[z + 50.0 for z in zone["mu"]]] * 10)
+    assert exposure(zone, parked) == pytest.approx(10 * peak_rate)
+    assert 0.1 <= peak_rate <= 0.2 + 1e-3  # the generator's peak attack rate per step
 
 
 def test_every_suite_scenario_is_valid_and_in_the_papers_family(full_suite):

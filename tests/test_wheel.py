@@ -1,4 +1,5 @@
-"""A plain (non-editable) install works from any directory: the wheel carries the scenarios.
+"""A plain (non-editable) install works from any directory: the wheel carries the scenarios and
+the generalization suite.
 
 The ``installed`` fixture (``conftest.py``) builds the wheel without build isolation and installs
 it with ``--no-deps`` into a fresh virtualenv whose dependencies come from this environment (a
@@ -27,6 +28,17 @@ def test_wheel_runs_reproduce_and_compare_from_an_empty_directory(installed, tmp
         env=env,
     ).stdout
     assert str(installed.parent) in where, f"imported from {where}, not from the wheel"
+    suite_size = _run(
+        [
+            str(installed / "python"),
+            "-c",
+            "from resilient_tracking.experiments.generator import stored_suite as s; "
+            "print(len(s()))",
+        ],
+        cwd=empty,
+        env=env,
+    ).stdout
+    assert suite_size.strip() == "60"  # the generalization suite is package data
     rtrack = str(installed / "rtrack")
     _run(
         [rtrack, "reproduce", "sensing-temp", "--quick", "--out", "R", "--jobs", "2", "-q"],

@@ -23,7 +23,7 @@ from typing import Any
 import yaml
 
 from resilient_tracking import scenarios
-from resilient_tracking.experiments.generator import SUITE_SEED, suite
+from resilient_tracking.experiments.generator import stored_suite
 from resilient_tracking.scenario import Scenario, parse_scenario
 from resilient_tracking.sim.folders import folder_name
 
@@ -194,24 +194,33 @@ QUICK_SUITE = 4
 QUICK_MAX_PAIRS = 16
 
 
+def _sensing_only(scenario: Scenario) -> bool:
+    return all(z.kind == "sensing" for z in scenario.zones)
+
+
 def generalization_cases(
     n: int = SUITE_SIZE, max_pairs: int | None = None
 ) -> list[tuple[Scenario, tuple[Variant, ...]]]:
     """The first ``n`` scenarios of the generated suite (of those with at most ``max_pairs``
-    robot-target pairs, if given), each with its arms: failure-aware, vanilla, failure-aware
-    with no zones (for the no-zone ratio) and, where every zone is a sensing zone, SOG (which
-    models sensing failures only)."""
-    scenarios = suite(SUITE_SEED, SUITE_SIZE)
+    robot-target pairs, if given, keeping one where SOG runs), each with its arms:
+    failure-aware, vanilla, failure-aware with no zones (for the no-zone ratio) and, where every
+    zone is a sensing zone, SOG (which models sensing failures only)."""
+    scenarios = stored_suite(SUITE_SIZE)
+    picked = scenarios[:n]
     if max_pairs is not None:
-        scenarios = [s for s in scenarios if len(s.robots) * len(s.targets) <= max_pairs]
+        small = [s for s in scenarios if len(s.robots) * len(s.targets) <= max_pairs]
+        picked = small[:n]
+        sog_case = next((s for s in small if _sensing_only(s)), None)
+        if sog_case is not None and not any(_sensing_only(s) for s in picked):
+            picked = picked[: n - 1] + [sog_case]
     out = []
-    for scenario in scenarios[:n]:
+    for scenario in picked:
         arms: list[tuple[str, str, dict[str, Any]]] = [
             ("failure_aware", "failure_aware", {}),
             ("vanilla", "vanilla", {}),
             ("failure_aware-nozone", "failure_aware", {"zones": []}),
         ]
-        if all(z.kind == "sensing" for z in scenario.zones):
+        if _sensing_only(scenario):
             arms.append(("sog", "sog", {}))
         variants = tuple(
             Variant(
