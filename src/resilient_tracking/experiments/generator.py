@@ -21,16 +21,18 @@ targets keep to the middle of the group, and may pass an outer lane's zone at a 
 its hazard is nil (then both teams run the same episode and the comparison says nothing). So
 the team's own path decides: the generator runs the vanilla team once on the scenario without
 zones (seed 1, the default planner; the same as the vanilla team's run with zones up to its
-first attack) and keeps a zone's centre only if that team's robots would suffer at least
-:data:`MEET_EXPOSURE` expected attacks from it, the sum over steps and robots of the hazard's rate.
+first attack) and keeps a zone's centre only where that team's robots would suffer at least
+:data:`MEET_EXPOSURE` expected attacks from it (the sum over steps and robots of the hazard's
+rate): of 100 draws the first that does, else the one met most, with a log line.
 
 Hazard intensities are chosen from a peak attack rate per step at the zone's centre, drawn in
 the range of the shipped scenarios: for a gaussian hazard the peak is
 ``κ f_act dt / (2π √det Σ)`` (paper eq. 1 at ``x = μ``), so ``κ = peak · 2π √det Σ / (f_act dt)``.
 
 All randomness comes from the ``generator`` stream of :mod:`resilient_tracking.rng`, drawn in
-order, so a suite is a pure function of its seed and ``suite(seed, n)`` is the first ``n``
-scenarios of any longer suite of the same seed.
+order, so a suite is a function of its seed (and of the planner, through the contact check)
+and ``suite(seed, n)`` is the first ``n`` scenarios of any longer suite of the same seed. The
+benchmark's suite is stored (:data:`SUITE_PATH`, :func:`stored_suite`) so that it stays fixed.
 """
 
 from __future__ import annotations
@@ -173,6 +175,7 @@ def _zone(
     robot_paths: np.ndarray,
     rng: np.random.Generator,
 ) -> dict[str, Any]:
+    """Zone ``index``: its kind, persistence and hazard, then a centre the team meets."""
     kind = "sensing" if rng.random() < 0.5 else "comm"
     persistence = "temporary" if rng.random() < 0.5 else "permanent"
     placement = PLACEMENTS[int(rng.integers(len(PLACEMENTS)))]
@@ -197,10 +200,25 @@ def _zone(
         zone["radius"] = round(float(math.sqrt(s1 * s2) * rng.uniform(0.9, 1.3)), 3)
     else:
         zone["delta2"] = round(float(rng.uniform(0.1, 0.3)), 3)
+    mu = _centre(zone, placement, paths, taken, robot_paths, rng)
+    taken.append(mu)
+    zone["mu"] = [float(mu[0]), float(mu[1])]
+    return zone
 
-    robot_starts = robot_paths[0]
+
+def _centre(
+    zone: dict[str, Any],
+    placement: str,
+    paths: list[np.ndarray],
+    taken: list[np.ndarray],
+    robot_paths: np.ndarray,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """A centre for ``zone`` by its placement on a route, clear of the robots' starts and the
+    other zones, that the zone-free team meets (:data:`MEET_EXPOSURE`); of 100 draws, the first
+    that does, else the one met most."""
     best: tuple[float, np.ndarray] | None = None
-    for _ in range(100):  # redraw until the centre is clear and the team meets the zone
+    for _ in range(100):
         path = paths[int(rng.integers(len(paths)))]
         k = int(rng.integers(int(MEET_WINDOW[0] / DT), int(MEET_WINDOW[1] / DT)))
         step = path[k + 1] - path[k - 1]
@@ -212,25 +230,19 @@ def _zone(
             candidate = path[k] + side * rng.uniform(0.3, 0.6) * np.array([-heading[1], heading[0]])
         else:
             candidate = path[k] + rng.uniform(0.6, 1.0) * heading
-        clear_of_robots = np.linalg.norm(robot_starts - candidate, axis=1).min() > 1.5
+        clear_of_robots = np.linalg.norm(robot_paths[0] - candidate, axis=1).min() > 1.5
         clear_of_zones = all(np.linalg.norm(candidate - other) > 1.0 for other in taken)
         if not (clear_of_robots and clear_of_zones and _inside(candidate[None], 0.5)):
             continue
-        zone["mu"] = [float(candidate[0]), float(candidate[1])]
-        met = exposure(zone, robot_paths)
+        met = exposure({**zone, "mu": candidate.tolist()}, robot_paths)
         if best is None or met > best[0]:
             best = (met, candidate)
         if met >= MEET_EXPOSURE:
-            break
+            return candidate
     if best is None:
-        mu = paths[0][int(MEET_WINDOW[1] / DT)]  # the first route late in the run
-    else:
-        mu = best[1]
-        if best[0] < MEET_EXPOSURE:
-            log.debug("zone %s: best exposure %.2f < %.2f", zone["name"], best[0], MEET_EXPOSURE)
-    taken.append(mu)
-    zone["mu"] = [float(mu[0]), float(mu[1])]
-    return zone
+        return paths[0][int(MEET_WINDOW[1] / DT)]  # the first route late in the run
+    log.info("zone %s: met by %.2f expected attacks at most", zone["name"], best[0])
+    return best[1]
 
 
 def team_paths(data: dict[str, Any], name: str) -> np.ndarray:
