@@ -251,6 +251,21 @@ def test_the_episode_fault_hook_reaches_the_sog_planner():
     assert len(fallbacks) == 5 * 3 and fallbacks.detail.str.startswith("safe").all()
 
 
+@pytest.mark.parametrize("solver, first", [("ladder", "sqp"), ("ipopt", "cold")])
+def test_the_scenarios_solver_choice_holds_for_sog(solver, first):
+    rungs: list[str] = []
+
+    def record(rung, solution, stats):
+        rungs.append(rung)
+        return solution, stats
+
+    base = shipped("sensing-temp")
+    s = base.with_overrides(steps=3, planner={**base.planner.model_dump(), "solver": solver})
+    run_episode(s, policy="sog", seed=1, fault_hook=record)
+    assert rungs and rungs[0] == first
+    assert ("sqp" in rungs) == (solver == "ladder")
+
+
 def test_rtrack_run_with_sog_writes_the_run_folder(tmp_path, capsys):
     out = tmp_path / "run"
     path = str(SCENARIOS / "sensing-temp.yaml")

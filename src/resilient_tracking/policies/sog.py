@@ -67,7 +67,10 @@ class SogPolicy(PlanningPolicy):
         sog_planner: SogPlanner | None = None,
     ):
         super().__init__(config, params, planner)
-        self.sog_planner = sog_planner or SogPlanner(self.planner.fault_hook)
+        # the scenario's solver choice (``planner.solver``) holds for SOG's program too
+        self.sog_planner = sog_planner or SogPlanner(
+            self.planner.fault_hook, solver=self.planner.solver, options=self.planner.options
+        )
         #: ``(w_track, w_risk)`` used at the last tick (for inspection and tests)
         self.last_weights = abundance_weights(params, 1.0)
 
