@@ -289,6 +289,19 @@ def test_ncv_target_with_zero_accel_std_moves_at_constant_velocity() -> None:
     np.testing.assert_allclose(world.target_states[0], [0.2, -0.1, 0.2, -0.1], atol=1e-12)
 
 
+def test_ncv_motion_follows_a_change_of_step_length() -> None:
+    """The NCV matrices are kept between steps; a step of another length gets its own."""
+    from resilient_tracking.scenario import NoisyConstantVelocity
+    from resilient_tracking.world.motions import NoisyConstantVelocityMotion
+
+    spec = NoisyConstantVelocity(type="ncv", velocity=[0.2, -0.1], accel_std=0.0)
+    motion = NoisyConstantVelocityMotion(spec, np.zeros(2))
+    rng = np.random.default_rng(0)
+    for dt in (0.1, 0.1, 0.3):
+        motion.step(dt, rng)
+    np.testing.assert_allclose(motion.position, [0.1, -0.05], atol=1e-12)
+
+
 # ---------------------------------------------------------------------------- measurements
 
 SENSOR = {"range": {"peak": 4.0, "shape": 0.5}, "bearing": {"peak": 50.0, "shape": 0.25}}

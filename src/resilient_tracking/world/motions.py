@@ -100,14 +100,19 @@ class NoisyConstantVelocityMotion(TargetMotion):
     def __init__(self, spec: NoisyConstantVelocity, start: np.ndarray):
         super().__init__(spec, start)
         self.velocity = np.array(spec.velocity, dtype=float)
+        #: ``(dt, F, Q)`` of the last step's ``dt`` (the model's matrices are computed on access)
+        self._matrices: tuple[float, np.ndarray, np.ndarray] | None = None
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """``x ← F x + w`` with ``w ~ N(0, Q)`` of the NCV model (no draw when noise is off)."""
-        model = NearlyConstantVelocity(dt, self.spec.accel_std)
+        if self._matrices is None or self._matrices[0] != dt:
+            model = NearlyConstantVelocity(dt, self.spec.accel_std)
+            self._matrices = (dt, model.transition, model.process_noise)
+        _, transition, process_noise = self._matrices
         noise = (
-            rng.multivariate_normal(np.zeros(4), model.process_noise, method="cholesky")
+            rng.multivariate_normal(np.zeros(4), process_noise, method="cholesky")
             if self.spec.accel_std > 0
             else np.zeros(4)
         )
-        state = model.transition @ np.concatenate([self.position, self.velocity]) + noise
+        state = transition @ np.concatenate([self.position, self.velocity]) + noise
         self.position, self.velocity = state[:2], state[2:]
