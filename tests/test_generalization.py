@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from resilient_tracking.cli import main
 from resilient_tracking.experiments.catalog import (
     QUICK_MAX_PAIRS,
     SUITE_SIZE,
@@ -37,7 +38,7 @@ from resilient_tracking.experiments.generator import (
     team_paths,
 )
 from resilient_tracking.experiments.summary import last_third_mean, stragglers
-from resilient_tracking.scenario import parse_scenario
+from resilient_tracking.scenario import load_scenario, parse_scenario
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +63,20 @@ def test_the_stored_suite_is_what_the_generator_draws():
     # `python tools/generate_suite.py` writes it again (and the report must be re-made)
     head = [s.model_dump() for s in suite(SUITE_SEED, 3)]
     assert head == [s.model_dump() for s in stored_suite(3)]
+
+
+def test_rtrack_generate_writes_scenario_files_and_replaces_none(tmp_path, drawn, capsys):
+    out = tmp_path / "suite"
+    assert main(["generate", "-n", "3", "--out", str(out), "-q"]) == 0
+    written = [load_scenario(out / f"g{i:02d}.yaml") for i in range(3)]
+    assert [s.model_dump() for s in written] == [s.model_dump() for s in stored_suite(3)]
+    assert main(["generate", "-n", "2", "--seed", "5", "--out", str(tmp_path / "s5"), "-q"]) == 0
+    assert load_scenario(tmp_path / "s5" / "g01.yaml").model_dump() == drawn[1].model_dump()
+    before = (out / "g00.yaml").read_text()
+    assert main(["generate", "-n", "1", "--out", str(out), "-q"]) == 1
+    assert "g00.yaml exists" in capsys.readouterr().err
+    assert (out / "g00.yaml").read_text() == before
+    assert main(["generate", "-n", "0", "--out", str(out), "-q"]) == 1
 
 
 def test_the_zone_free_vanilla_team_meets_every_zone(drawn):

@@ -279,6 +279,38 @@ def cmd_animate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_generate(args: argparse.Namespace) -> int:
+    """``rtrack generate``: write scenarios of the generalization benchmark's family as YAML
+    files (the benchmark's stored suite by default); never replaces a file."""
+    import yaml
+
+    from resilient_tracking.experiments.generator import SUITE_SEED, drawn, stored_suite
+    from resilient_tracking.sim.folders import write_text_atomic
+
+    if _out_of_range("-n", args.n, 1, MAX_SEEDS):
+        return 1
+    out = Path(args.out)
+    if _not_a_folder(out):
+        return 1
+    names = [out / f"g{i:02d}.yaml" for i in range(args.n)]
+    taken = [path for path in names if path.exists()]
+    if taken:
+        print(f"error: --out: {taken[0]} exists (nothing is replaced)", file=sys.stderr)
+        return 1
+    seed = SUITE_SEED if args.seed is None else args.seed
+    stored = stored_suite(args.n) if seed == SUITE_SEED else []
+    scenarios = stored if len(stored) == args.n else drawn(seed, args.n)
+    out.mkdir(parents=True, exist_ok=True)
+    with tqdm(total=args.n, desc="generate", unit="scenario", disable=args.quiet) as bar:
+        for path, scenario in zip(names, scenarios, strict=True):
+            header = f"# drawn by `rtrack generate --seed {seed}` (docs/generalization.md)\n"
+            data = scenario.model_dump(mode="json", exclude_defaults=True)
+            write_text_atomic(path, header + yaml.safe_dump(data, sort_keys=False))
+            _step(bar, 1)
+    print(f"wrote {args.n} scenarios to {out} (run one with: rtrack run {names[0]})")
+    return 0
+
+
 def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] | None:
     """Scenario, seed and node settings of ``rtrack node``/``world``; None after an error."""
     try:
@@ -527,6 +559,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
     _add_sweep_options(p)
     p.set_defaults(func=cmd_compare, argv=None)
+
+    p = sub.add_parser(
+        "generate",
+        help="write generated scenarios of the paper's family as YAML files "
+        "(docs/generalization.md)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=None, help="generator seed (default: the benchmark's, 2024)"
+    )
+    p.add_argument("-n", type=int, default=60, help="how many scenarios (default: 60)")
+    p.add_argument("--out", default="generated", help="folder (default: generated)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_generate)
 
     p = sub.add_parser(
         "animate", help="write a GIF and an MP4 (system ffmpeg or imageio-ffmpeg) of a run folder"

@@ -40,6 +40,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -285,14 +286,18 @@ def generate(rng: np.random.Generator, name: str) -> Scenario:
     return parse_scenario(data, name)
 
 
+def drawn(seed: int = SUITE_SEED, n: int = 60) -> Iterator[Scenario]:
+    """The first ``n`` scenarios drawn from ``seed``, one at a time, named ``g00``, ``g01``…"""
+    rng = stream(seed, "generator")
+    for i in range(n):
+        scenario = generate(rng, f"g{i:02d}")
+        log.info("generated %s: %s", scenario.name, scenario.description)
+        yield scenario
+
+
 def suite(seed: int = SUITE_SEED, n: int = 60) -> list[Scenario]:
     """The first ``n`` scenarios drawn from ``seed``, named ``g00``, ``g01``…"""
-    rng = stream(seed, "generator")
-    out = []
-    for i in range(n):
-        out.append(generate(rng, f"g{i:02d}"))
-        log.info("generated %s: %s", out[-1].name, out[-1].description)
-    return out
+    return list(drawn(seed, n))
 
 
 def stored_suite(n: int | None = None) -> list[Scenario]:
