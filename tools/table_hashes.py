@@ -4,6 +4,11 @@
 fixed set of runs (every shipped paper and benchmark scenario with every policy) into
 ``tests/data/golden_tables.json``; ``tests/test_golden_tables.py`` re-runs them and compares.
 Every run uses the paper's one-step planner program.
+
+Bit for bit holds on one kind of CPU: OpenBLAS picks its kernels by CPU (and NumPy its SIMD
+loops), and an AVX-512 kernel rounds differently from an AVX2 one. So the fingerprints are
+taken with both pinned (:data:`PINNED_ENV`, set before NumPy loads: the script re-runs itself
+with it), which any x86-64 CPU with AVX2 and FMA runs alike.
 """
 
 from __future__ import annotations
@@ -11,6 +16,8 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -34,6 +41,11 @@ SHIPPED = (
     "bench-complex",
 )
 SEED = 7
+#: OpenBLAS's AVX2 kernels and NumPy's SIMD loops without AVX-512, whatever the CPU.
+PINNED_ENV = {
+    "OPENBLAS_CORETYPE": "Haswell",
+    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+}
 
 #: (scenario, policy) pairs fingerprinted, each over the scenario's full length at SEED.
 RUNS: list[tuple[str, str]] = [
@@ -66,9 +78,17 @@ def fingerprints(runs: list[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]
     return out
 
 
+def pinned() -> bool:
+    """Whether this process started with :data:`PINNED_ENV` (it must, before NumPy loads)."""
+    return all(os.environ.get(key) == value for key, value in PINNED_ENV.items())
+
+
 def main() -> None:
+    if not pinned():  # re-run with the kernels pinned (replaces this process)
+        os.execve(sys.executable, [sys.executable, *sys.argv], {**os.environ, **PINNED_ENV})
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--write", action="store_true", help=f"record into {GOLDEN}")
+    parser.add_argument("--json", action="store_true", help="print the fingerprints as JSON")
     parser.add_argument(
         "--policy",
         choices=sorted({policy for _, policy in RUNS}),
@@ -76,6 +96,9 @@ def main() -> None:
     )
     args = parser.parse_args()
     found = fingerprints([r for r in RUNS if args.policy in (None, r[1])])
+    if args.json:
+        print(json.dumps(found))
+        return
     if args.write:
         recorded = json.loads(GOLDEN.read_text()) if GOLDEN.exists() else {}
         recorded.update(found)
