@@ -47,4 +47,3 @@ def found() -> dict[str, dict[str, str]]:
 def test_tables_equal_recorded(run: tuple[str, str], found: dict[str, dict[str, str]]) -> None:
     key = f"{run[0]}/{run[1]}"
     assert found[key] == GOLDEN[key]
-

@@ -22,7 +22,8 @@ from resilient_tracking.planning.solver_options import ProblemOptions
 def test_each_input_is_packed_where_its_symbol_is(slots, route):
     q = inputs(n=3, big_n=2, sensing_zones=2, comm_zones=1, seed=2)
     if route:  # the route program's rows are there only in its problems
-        q = replace(q, route=np.arange(12.0).reshape(3, 4), standoff=0.2)
+        unlinked = np.array([[1.0, 0, 1], [0, 1, 0], [1, 0, 1]])
+        q = replace(q, route=np.arange(12.0).reshape(3, 4), standoff=0.2, unlinked=unlinked)
     layout = ParameterLayout(structure_of(q), slots)
     symbols = layout.symbols()
     p = ca.veccat(*symbols.values())
@@ -45,7 +46,7 @@ def test_each_input_is_packed_where_its_symbol_is(slots, route):
         "dt": np.array([[q.dt]]),
         "sensing_zones": q.sensing_zones.T,
         "comm_zones": q.comm_zones.T,
-        **({"route": q.route.T} if q.route is not None else {}),
+        **({"route": q.route.T, "unlinked": q.unlinked.T} if q.route is not None else {}),
     }
     assert [b.name for b in present] == list(expected)
     for block, value in zip(present, values, strict=True):

@@ -229,6 +229,13 @@ class ProblemInputs:
     route: np.ndarray | None = field(
         default=None, metadata=parameter("robot", RouteRow.WIDTH, "route", when="route")
     )
+    #: (n, n) the route program's eq. 7d links: 1 where the pair's jamming row is left out
+    #: (the league keeps a spanning tree of its links, :func:`~.spanning.spanning_unlinked`); None
+    #: (zeros): every teammate, the paper's rule
+    unlinked: np.ndarray | None = field(
+        default=None,
+        metadata=parameter("robot", lambda s: s.n_robots, "unlinked", when="route"),
+    )
     #: distance regularisation (m) of the information model (:attr:`Structure.standoff`)
     standoff: float = PLAN_EPS
     #: the robots' measurement model (:attr:`Structure.sensor_model`)

@@ -224,6 +224,14 @@ class LeagueNLP:
         rows.jvals.extend([dt * dh[0], dt * dh[1], ca.SX(1)])
         rows.own.append((r, i, ddh))
 
+    def _linked_delta2(self, delta2: Any, i: int, q: int) -> Any:
+        """``δ2`` of robot ``i``'s eq. 7d row with teammate ``q``: the zone's in the paper's
+        program; the route program's ``unlinked`` parameter may leave the link out (0), and the
+        row then keeps ``i`` clear of the zone's centre only."""
+        if not self.structure.route:
+            return delta2
+        return delta2 * (1 - self.params["unlinked"][q, i])
+
     def _comm_keep_out(self, i: int, z: Any) -> tuple[Any, Any, Any]:
         """The keep-out margin of eq. 7d (without the teammate term) for robot ``i``."""
         return self.pieces["keep_out"](
@@ -253,17 +261,18 @@ class LeagueNLP:
                 for q in range(n):
                     if q == i:
                         continue
+                    d2 = self._linked_delta2(delta2, i, q)
                     value, grad_pair, hess_pair = pairs[min(i, q), max(i, q)]
                     # ∂‖x_i − x_q‖/∂x_i = grad_pair if i < q, −grad_pair otherwise
                     gp = grad_pair if i < q else -grad_pair
                     r = len(rows.g)
-                    rows.g.append(h - delta2 * value + self.xi[zk, i])
-                    di, dq = dh - delta2 * gp, delta2 * gp
+                    rows.g.append(h - d2 * value + self.xi[zk, i])
+                    di, dq = dh - d2 * gp, d2 * gp
                     rows.jrows.extend([r, r, r, r, r])
                     rows.jcols.extend([v.u(i), v.u(i) + 1, v.u(q), v.u(q) + 1, v.xi(i, zk)])
                     rows.jvals.extend([dt * di[0], dt * di[1], dt * dq[0], dt * dq[1], ca.SX(1)])
                     rows.own.append((r, i, ddh))
-                    rows.pair.append((r, i, [(q, ca.SX(1))], delta2 * hess_pair))
+                    rows.pair.append((r, i, [(q, ca.SX(1))], d2 * hess_pair))
         return rows
 
     def _slot_constraints(self) -> ConstraintRows:

@@ -104,7 +104,8 @@ def reduce(structure: Structure, slots: Slots, q: ProblemInputs) -> Reduction | 
        ``ρ(v) = √(‖v‖² + ε²)`` increasing in ``‖v‖ ≤ d_iq + r_i + r_q`` (``d_iq = ‖x_i −
        x_q‖``). If ``H_ik − δ2 max_q ρ(d_iq + r_i + r_q) > tol`` every row of ``(i, k)``
        holds with ``ξ_ik = 0``: as in 1., the rows and ``ξ_ik`` are dropped.
-    3. For the comm zones a robot keeps, its rows differ only in the teammate. Let ``q*``
+    3. For the comm zones a robot keeps, its rows differ only in the teammate (among the
+       teammates whose link the route program keeps, ``unlinked``). Let ``q*``
        maximise ``d_iq − r_i − r_q``, a lower bound of ``‖x_i⁺ − x_q⁺‖``. A teammate with
        ``d_iq + r_i + r_q < d_iq* − r_i − r_q*`` is always nearer than ``q*``, so
        ``g_iqk ≥ g_iq*k`` (``δ2 ≥ 0``) and its row holds wherever row ``q*``'s does: it is
@@ -139,6 +140,15 @@ def reduce(structure: Structure, slots: Slots, q: ProblemInputs) -> Reduction | 
     near = d - reach[:, None] - reach[None, :]
     np.fill_diagonal(far, -np.inf)
     np.fill_diagonal(near, -np.inf)
+    if q.unlinked is not None and n > 1:
+        # a link the route program leaves out of eq. 7d: its rows are ``h + ξ ≥ 0``, which
+        # every kept row of the robot implies (``δ2 ≥ 0``); a robot with no link kept: full
+        unlinked = np.asarray(q.unlinked) > 0.5
+        np.fill_diagonal(unlinked, True)
+        if unlinked.all(axis=1).any():
+            return None
+        far[unlinked] = -np.inf
+        near[unlinked] = -np.inf
     pair_top = pair_distance_upper_bound(far.max(axis=1)) if n > 1 else np.zeros(n)
     bound_c = keep_out_lower_bound(
         x, reach, zc[:, CommRow.GAUSSIAN], zc[:, CommRow.CLEARANCE], zc[:, CommRow.BETA]

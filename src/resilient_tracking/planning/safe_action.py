@@ -31,6 +31,8 @@ def constraint_margins(q: ProblemInputs, robot: int) -> np.ndarray:
         x, zs[:, SensingRow.GAUSSIAN], zs[:, SensingRow.R_SAFE], zs[:, SensingRow.BETA]
     )
     others = np.delete(q.positions, robot, axis=0)
+    if q.unlinked is not None:  # the route program's kept links only
+        others = others[np.delete(np.asarray(q.unlinked)[robot], robot) < 0.5]
     farthest = float(pair_distances(x, others).max()) if len(others) else 0.0
     comm = keep_out_values(
         x, zc[:, CommRow.GAUSSIAN], zc[:, CommRow.CLEARANCE], zc[:, CommRow.BETA]

@@ -25,6 +25,7 @@ from resilient_tracking.planning.layout import ProblemInputs, Weight, comm_table
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 from resilient_tracking.planning.route import RouteMaps
 from resilient_tracking.planning.safe_action import safe_action
+from resilient_tracking.planning.spanning import spanning_unlinked
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.team_config import TeamConfig
 
@@ -102,6 +103,8 @@ class PlanningPolicy(Policy):
             route,
         )
         q.standoff = route.standoff
+        if route.links == "spanning" and len(comm_zones):
+            q.unlinked = spanning_unlinked(positions)
         return q
 
     def solve(

@@ -56,6 +56,14 @@ class RouteSpec(Strict):
         ),
         json_schema_extra={"unit": "m"},
     )
+    links: Literal["all", "spanning"] = Field(
+        "all",
+        description=(
+            "Teammates whose link a robot's comm-zone constraint (eq. 7d) protects: all (the "
+            "paper's rule) or spanning (its neighbours in the league's shortest spanning tree, "
+            "enough to keep the league connected; docs/generalization.md measures both)."
+        ),
+    )
 
 
 class PlannerSpec(Strict):
