@@ -14,6 +14,7 @@ import numpy as np
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import SIX
+from resilient_tracking.sim.kernels import numeric_kernels
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -41,6 +42,7 @@ def machine() -> dict[str, Any]:
         "python": platform.python_version(),
         "casadi": casadi.CasadiMeta.version(),
         "numpy": np.__version__,
+        "kernels": numeric_kernels(),
         "platform": platform.platform(),
     }
 

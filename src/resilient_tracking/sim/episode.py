@@ -24,6 +24,7 @@ from resilient_tracking.planning.planner import FaultHook, LeaguePlanner
 from resilient_tracking.policies import make_policy
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
+from resilient_tracking.sim.kernels import numeric_kernels
 from resilient_tracking.sim.metrics import effort, mse
 from resilient_tracking.sim.records import ColumnTable, EpisodeResult, frame
 from resilient_tracking.team import Team, TeamStep
@@ -286,6 +287,7 @@ def episode_manifest(
         "version": __version__,
         "casadi": casadi.CasadiMeta.version(),
         "numpy": np.__version__,
+        "kernels": numeric_kernels(),
         "python": platform.python_version(),
         "steps": steps,
         "wall_time_s": round(wall, 3),

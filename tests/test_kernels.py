@@ -1,0 +1,41 @@
+"""Run manifests record the numeric kernels, which decide a table's last bits (model §9)."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+
+import pytest
+
+from helpers import SCENARIOS
+from resilient_tracking.cli import main
+from resilient_tracking.sim.kernels import numeric_kernels
+
+QUERY = "from resilient_tracking.sim.kernels import numeric_kernels as k; print(k()['openblas'])"
+
+
+def test_the_kernels_are_named():
+    kernels = numeric_kernels()
+    assert kernels["openblas"] != "unknown"  # NumPy's wheels bundle OpenBLAS
+    assert isinstance(kernels["simd"], list)
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="x86-64 OpenBLAS core names")
+def test_the_recorded_core_is_the_one_running():
+    """Forcing OpenBLAS's kernels before NumPy loads shows in what is recorded."""
+    env = {**os.environ, "OPENBLAS_CORETYPE": "Sandybridge"}
+    done = subprocess.run(
+        [sys.executable, "-c", QUERY], env=env, capture_output=True, text=True, timeout=60
+    )
+    assert done.stdout.strip() == "Sandybridge", done.stderr
+
+
+def test_a_run_manifest_records_the_kernels(tmp_path):
+    out = tmp_path / "run"
+    args = ["run", str(SCENARIOS / "sensing-temp.yaml"), "--steps", "3", "--out", str(out)]
+    assert main([*args, "--no-figures", "-q"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["kernels"] == json.loads(json.dumps(numeric_kernels()))
