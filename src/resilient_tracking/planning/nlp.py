@@ -276,7 +276,8 @@ class LeagueNLP:
         return rows
 
     def _slot_constraints(self) -> ConstraintRows:
-        """The reduced problem: zones and teammates picked by the one-hot parameters."""
+        """The reduced problem: zones and teammates picked by the one-hot parameters (a left-out
+        link of the route program is never picked, so every slot row keeps the zone's ``δ2``)."""
         assert self.slots is not None
         n, v, dt = self.structure.n_robots, self.variables, self.params["dt"]
         szones, czones = self.params["sensing_zones"], self.params["comm_zones"]

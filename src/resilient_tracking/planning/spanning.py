@@ -22,6 +22,6 @@ def spanning_unlinked(positions: np.ndarray) -> np.ndarray:
     n = len(positions)
     if n < 2:
         return np.ones((n, n))
-    gaps = np.hypot(*(positions[:, None, :] - positions[None, :, :]).transpose(2, 0, 1))
+    gaps = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=2)
     tree = minimum_spanning_tree(gaps + _TIE * (1 - np.eye(n))).toarray() > 0
     return 1.0 - (tree | tree.T).astype(float)
