@@ -76,7 +76,7 @@ class TeamObservation:
         m = positions.shape[0]
         if m < 1:
             raise ValueError("TeamObservation.positions: at least one robot is needed")
-        if not np.all(np.isfinite(positions)):
+        if not np.isfinite(positions).all():
             raise ValueError("TeamObservation.positions: must be finite")
         set_(self, "positions", positions)
         measurements = _array("measurements", self.measurements, float)
@@ -109,7 +109,7 @@ class TeamObservation:
             raise ValueError(
                 f"TeamObservation.links: expected shape (M={m}, M={m}), got {links.shape}"
             )
-        if not np.array_equal(links, links.T):
+        if not (links == links.T).all():  # shapes checked above
             raise ValueError("TeamObservation.links: must be symmetric (a link works both ways)")
         set_(self, "links", links)
         attacks = tuple(self.attacks)

@@ -13,7 +13,7 @@ The team's belief runs this watch at the end of its update when the policy asks 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -59,9 +59,10 @@ class SilentRobotWatch:
         """Watch this tick's silent robots; learn what they reveal; one event per finding."""
         s = self.settings
         events: list[Event] = []
-        listeners = [i for i in range(obs.n_robots) if obs.links[i].any()]
-        for robot in range(obs.n_robots):
-            silent = not obs.links[robot].any()
+        linked = cast(list[bool], obs.links.any(axis=1).tolist())
+        listeners = [i for i, has_link in enumerate(linked) if has_link]
+        for robot, has_link in enumerate(linked):
+            silent = not has_link
             if silent and robot not in self._silent and listeners:
                 events += self._suspect_jammer(belief, obs, robot, listeners)
             fit = self.watcher.observe(robot, obs.positions[robot], silent)
@@ -86,7 +87,7 @@ class SilentRobotWatch:
                     f" residual={fit.residual:.4f} arc={fit.arc:.2f} n={fit.n_samples}",
                 ),
             )
-        self._silent = {i for i in range(obs.n_robots) if not obs.links[i].any()}
+        self._silent = {i for i, has_link in enumerate(linked) if not has_link}
         return events
 
     def _suspect_jammer(

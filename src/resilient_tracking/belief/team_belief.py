@@ -125,6 +125,8 @@ class TeamBelief:
             self.learned.append((robot, estimate))
 
     def _regroup(self, leagues: list[list[int]], step: int) -> list[Event]:
+        if leagues == self.leagues:  # the usual tick: same leagues, same estimates
+            return []
         events: list[Event] = []
         old_of = self.league_of
         # how many new leagues each old league feeds: more than one means it split

@@ -16,8 +16,8 @@ def components(adjacency: NDArray[np.bool_]) -> list[list[int]]:
     n = adj.shape[0]
     if n == 0:
         return []
-    adj = adj | adj.T  # undirected: a link in either direction joins the two robots
-    neighbours = [np.flatnonzero(row).tolist() for row in adj]
+    rows = (adj | adj.T).tolist()  # undirected: a link in either direction joins the two robots
+    neighbours = [[j for j, linked in enumerate(row) if linked] for row in rows]
     seen = [False] * n
     groups: list[list[int]] = []
     for start in range(n):  # in increasing order, so each group starts at its smallest member

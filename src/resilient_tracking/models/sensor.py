@@ -121,21 +121,19 @@ class RangeBearingSensor(MeasurementModel):
     def predict(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Noise-free measurement ``[‖p − x‖, atan2(Δy, Δx)]``; arrays broadcast over rows."""
         delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
-        rng = np.hypot(delta[..., 0], delta[..., 1])
-        bearing = np.arctan2(delta[..., 1], delta[..., 0])
-        return np.stack([rng, bearing], axis=-1)
+        out = np.empty(delta.shape)
+        out[..., 0] = np.hypot(delta[..., 0], delta[..., 1])
+        out[..., 1] = np.arctan2(delta[..., 1], delta[..., 0])
+        return out
 
     def noise_variance(self, distance: FloatArray | float) -> FloatArray:
         """Per-channel variance ``[R_range(d), R_bearing(d)]``."""
         d = np.asarray(distance, dtype=float)
+        out = np.empty(d.shape + (2,))
         # capped exponent: far beyond the sensor's reach the variance is huge but finite
-        return np.stack(
-            [
-                np.exp(np.minimum(self.range_shape * d, MAX_EXPONENT)) / self.range_peak,
-                np.exp(np.minimum(self.bearing_shape * d, MAX_EXPONENT)) / self.bearing_peak,
-            ],
-            axis=-1,
-        )
+        out[..., 0] = np.exp(np.minimum(self.range_shape * d, MAX_EXPONENT)) / self.range_peak
+        out[..., 1] = np.exp(np.minimum(self.bearing_shape * d, MAX_EXPONENT)) / self.bearing_peak
+        return out
 
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Jacobian of the measurement w.r.t. the target position: rows ``δᵀ/d`` (range) and
@@ -144,9 +142,10 @@ class RangeBearingSensor(MeasurementModel):
         dx, dy = delta[..., 0], delta[..., 1]
         d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
         d = np.sqrt(d2)
-        row_range = np.stack([dx / d, dy / d], axis=-1)
-        row_bearing = np.stack([-dy / d2, dx / d2], axis=-1)
-        return np.stack([row_range, row_bearing], axis=-2)
+        out = np.empty(d.shape + (2, 2))
+        out[..., 0, 0], out[..., 0, 1] = dx / d, dy / d  # range row
+        out[..., 1, 0], out[..., 1, 1] = -dy / d2, dx / d2  # bearing row
+        return out
 
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
         """Whether a target at this distance (m) is measured: within ``max_range``, or always when

@@ -9,6 +9,7 @@ know: measurements, their own failures, attack clues and link states.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -50,8 +51,10 @@ def clip_velocities(
     A pure function of the robots' own positions, so a robot-side node can apply the same
     clipping to its commands as the simulator does.
     """
-    u = np.clip(np.nan_to_num(controls, nan=0.0), -u_max[:, None], u_max[:, None])
-    nxt = np.clip(positions + u * dt, lower, upper)
+    bound = u_max[:, None]
+    u = np.where(np.isnan(controls), 0.0, controls)  # ±inf are clipped to the bound below
+    u = np.minimum(np.maximum(u, -bound), bound)
+    nxt = np.minimum(np.maximum(positions + u * dt, lower), upper)
     return (nxt - positions) / dt
 
 
@@ -228,8 +231,8 @@ class World:
             positions, radio, np.zeros((0,) + jammed.shape[1:], bool), self.scenario.comm_range
         )
         links = possible & ~jammed.any(axis=0) if jammed.size else possible
-        any_possible = [bool(v) for v in np.any(possible, axis=1)]
-        any_link = [bool(v) for v in np.any(links, axis=1)]
+        any_possible = cast(list[bool], possible.any(axis=1).tolist())
+        any_link = cast(list[bool], links.any(axis=1).tolist())
         for robot in range(self.n_robots):
             failure = self.failures["comm"][robot]
             isolated = any_possible[robot] and not any_link[robot]
