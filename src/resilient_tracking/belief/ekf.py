@@ -112,7 +112,7 @@ class ExtendedKalmanFilter:
         z = np.asarray(measurements, dtype=float)
         if z.shape != (k, n, 2):
             raise ValueError(f"measurements must have shape ({k}, {n}, 2), got {z.shape}")
-        if not np.all(np.isfinite(robots)):
+        if not np.isfinite(robots).all():
             raise ValueError("robot_positions must be finite")
 
         mean, cov = est.mean, est.cov
@@ -121,7 +121,7 @@ class ExtendedKalmanFilter:
         hjac = self.sensor.jacobian(robots[:, None, :], pos[None, :, :])  # (K, N, 2, 2)
         var = self.sensor.noise_variance(h[..., 0])  # R(d̂) at the predicted distance
 
-        valid = np.all(np.isfinite(z), axis=-1)  # (K, N)
+        valid = np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
         innov[..., 1] = wrap_angle(innov[..., 1])
         innov = np.where(valid[..., None], innov, 0.0)
@@ -138,7 +138,9 @@ class ExtendedKalmanFilter:
         m = np.eye(2) + info @ cov[:, :2, :2]
         f = np.swapaxes(np.linalg.solve(np.swapaxes(m, 1, 2), cov[:, :2, :]), 1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
-        i_kh = np.eye(4) - np.concatenate([f @ info, np.zeros((n, 4, 2))], axis=2)
+        kh = np.zeros((n, 4, 4))
+        kh[:, :, :2] = f @ info
+        i_kh = np.eye(4) - kh
         joseph = i_kh @ cov @ np.swapaxes(i_kh, 1, 2) + f @ info @ np.swapaxes(f, 1, 2)
         new_cov = _symmetrize(joseph)
         return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)

@@ -90,13 +90,16 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     ``t = 2 max(EIGEN_FLOOR_RATIO tr P, EIGEN_FLOOR_ABS)`` ≥ twice the floor since
     ``λmax ≤ tr P``), else None. The common case, decided without an eigen-decomposition;
     :func:`repair_covariances` gives the same answer (no repair) for it."""
-    if not np.all(np.isfinite(cov)):
+    if not np.isfinite(cov).all():
         return None
-    scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)
     transposed = np.swapaxes(cov, 1, 2)
-    if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
-        return None
-    sym = 0.5 * (cov + transposed)
+    if (cov == transposed).all():  # as the filter leaves it; (P + Pᵀ)/2 would be P again
+        sym = cov.copy()
+    else:
+        scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)
+        if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
+            return None
+        sym = 0.5 * (cov + transposed)
     trace = np.trace(sym, axis1=1, axis2=2)
     shift = 2 * np.maximum(EIGEN_FLOOR_RATIO * trace, EIGEN_FLOOR_ABS)
     try:

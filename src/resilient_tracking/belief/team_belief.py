@@ -181,6 +181,8 @@ class TeamBelief:
 
     def team_estimate(self) -> TargetEstimate:
         """The estimate of the league with most sensing robots; ties go to the lower trace."""
+        if len(self.leagues) == 1:
+            return self.estimates[0]
         best = min(
             range(len(self.leagues)),
             key=lambda k: (

@@ -87,7 +87,7 @@ class FailureAwarePolicy(PlanningPolicy):
         if any(a.clue.persistence == "temporary" or a.cause == "jamming" for a in obs.attacks):
             self.cooldown_until = obs.step + self.params.cooldown_steps
         cooling = obs.step < self.cooldown_until
-        attacked = int(np.sum(~obs.sensing_ok | ~obs.comm_ok))
+        attacked = m - int(np.count_nonzero(obs.sensing_ok & obs.comm_ok))
 
         for k, robots in enumerate(belief.leagues):
             knowledge = belief.league_knowledge(robots)

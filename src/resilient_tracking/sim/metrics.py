@@ -7,7 +7,7 @@ import numpy as np
 
 def mse(estimated_positions: np.ndarray, true_positions: np.ndarray) -> float:
     """``(1/N) Σ_j ‖ŷ_j − y_j‖²`` over target positions (N, 2)."""
-    return float(np.mean(np.sum((estimated_positions - true_positions) ** 2, axis=1)))
+    return float(((estimated_positions - true_positions) ** 2).sum(axis=1).mean())
 
 
 def effort(controls: np.ndarray) -> float:

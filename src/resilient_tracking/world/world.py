@@ -189,9 +189,10 @@ class World:
         # One uniform per (zone, robot) every step, whatever the state: common random numbers.
         draws = self._rng_attacks.random((len(self.zones), self.n_robots))
         for zone, row in zip(self.zones, draws, strict=True):
-            p = zone.hazard.probability(self.robot_positions, self.step_index, self.dt)
-            for robot in np.flatnonzero(row < p):
-                self._fail(int(robot), zone, "hazard")
+            hit = row < zone.hazard.probability(self.robot_positions, self.step_index, self.dt)
+            if hit.any():
+                for robot in np.flatnonzero(hit).tolist():
+                    self._fail(robot, zone, "hazard")
 
     def _fail(self, robot: int, zone: TrueZone, cause: str) -> None:
         kind: FailureKind = "sensing" if zone.kind == "sensing" else "comm"
