@@ -16,7 +16,10 @@ def components(adjacency: NDArray[np.bool_]) -> list[list[int]]:
     n = adj.shape[0]
     if n == 0:
         return []
-    rows = (adj | adj.T).tolist()  # undirected: a link in either direction joins the two robots
+    adj = adj | adj.T  # undirected: a link in either direction joins the two robots
+    if (adj | np.eye(n, dtype=bool)).all():  # every pair linked: one league, the usual case
+        return [list(range(n))]
+    rows = adj.tolist()
     neighbours = [[j for j, linked in enumerate(row) if linked] for row in rows]
     seen = [False] * n
     groups: list[list[int]] = []

@@ -120,7 +120,8 @@ class World:
         targets = np.array([t.position for t in self.targets])
         # Noise is drawn for every pair every step so the stream stays aligned across policies.
         z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
-        distance = np.linalg.norm(targets[None, :, :] - positions[:, None, :], axis=-1)
+        offsets = targets[None, :, :] - positions[:, None, :]
+        distance = np.sqrt((offsets * offsets).sum(axis=-1))  # as np.linalg.norm(axis=-1) sums
         sensing_ok = self.capability_ok("sensing")
         measured = sensing_ok[:, None] & self.sensor.in_range(distance)
         z[~measured] = np.nan
