@@ -129,6 +129,17 @@ def test_column_tables_grow_in_blocks_and_keep_dtypes():
     assert frame["mode"].tolist()[:3] == ["track", "evade", "track"]
 
 
+def test_single_rows_append_like_blocks_of_one():
+    dtypes = {"step": np.int64, "x": np.float64, "n": np.int64}
+    by_row, by_block = ColumnTable(dtypes, capacity=2), ColumnTable(dtypes, capacity=2)
+    for k in range(9):  # past the capacity: the row path grows the columns too
+        values = {"step": k, "x": np.float64(0.1) * k, "n": np.int64(k % 3)}
+        by_row.append_row(**values)
+        by_block.append(1, **values)
+    assert len(by_row) == 9
+    pd.testing.assert_frame_equal(by_row.frame(), by_block.frame())
+
+
 @pytest.mark.parametrize(
     ("solver", "first_rungs"), [("ladder", {"sqp"}), ("ipopt", {"cold", "warm"})]
 )

@@ -124,8 +124,11 @@ class ExtendedKalmanFilter:
         valid = np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
         innov[..., 1] = wrap_angle(innov[..., 1])
-        innov = np.where(valid[..., None], innov, 0.0)
-        rinv = np.where(valid[..., None], 1.0 / var, 0.0)
+        if valid.all():  # every robot measured every target: nothing to mask
+            rinv = 1.0 / var
+        else:
+            innov = np.where(valid[..., None], innov, 0.0)
+            rinv = np.where(valid[..., None], 1.0 / var, 0.0)
 
         # Information contributed to the position block: J = Σ_k Hᵀ R⁻¹ H, b = Σ_k Hᵀ R⁻¹ z̃.
         info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
@@ -135,12 +138,12 @@ class ExtendedKalmanFilter:
         #   (P⁻¹ + Eᵀ J E)⁻¹ Eᵀ = P Eᵀ W =: F,  ŷ⁺ = ŷ + F b,  stacked gain K with K H = F J E.
         # The covariance is then formed in Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, where
         # K R Kᵀ = F J Fᵀ: a sum of congruences, so it stays positive definite numerically.
-        m = np.eye(2) + info @ cov[:, :2, :2]
+        m = _EYE2 + info @ cov[:, :2, :2]
         f = np.swapaxes(np.linalg.solve(np.swapaxes(m, 1, 2), cov[:, :2, :]), 1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
         kh = np.zeros((n, 4, 4))
         kh[:, :, :2] = f @ info
-        i_kh = np.eye(4) - kh
+        i_kh = _EYE4 - kh
         joseph = i_kh @ cov @ np.swapaxes(i_kh, 1, 2) + f @ info @ np.swapaxes(f, 1, 2)
         new_cov = _symmetrize(joseph)
         return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
@@ -178,6 +181,10 @@ class _Linearisation(NamedTuple):
     innov: FloatArray
     rinv: FloatArray
     b: FloatArray
+
+
+_EYE2, _EYE4 = np.eye(2), np.eye(4)
+_EYE2.flags.writeable = _EYE4.flags.writeable = False
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:

@@ -13,6 +13,7 @@ and reports each matrix it had to change, so the caller can log an event.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,7 +56,7 @@ def repair_covariances(
     ``fallback`` ``(d, d)`` replaces a matrix with a non-finite entry (default: identity).
     """
     cov = np.array(cov, dtype=float, copy=True)
-    healthy = _surely_healthy(cov)
+    healthy = _surely_healthy(cov)  # may be this copy itself
     if healthy is not None:
         return healthy, []
     n, d = cov.shape[0], cov.shape[-1]
@@ -89,24 +90,32 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     has all eigenvalues above twice the floor (a Cholesky factorisation of ``P − t I`` exists,
     ``t = 2 max(EIGEN_FLOOR_RATIO tr P, EIGEN_FLOOR_ABS)`` ≥ twice the floor since
     ``λmax ≤ tr P``), else None. The common case, decided without an eigen-decomposition;
-    :func:`repair_covariances` gives the same answer (no repair) for it."""
+    :func:`repair_covariances` gives the same answer (no repair) for it. An exactly symmetric
+    stack, as the filter leaves it, comes back as itself: ``(P + Pᵀ)/2`` would be ``P``."""
     if not np.isfinite(cov).all():
         return None
     transposed = np.swapaxes(cov, 1, 2)
-    if (cov == transposed).all():  # as the filter leaves it; (P + Pᵀ)/2 would be P again
-        sym = cov.copy()
+    if (cov == transposed).all():
+        sym = cov
     else:
         scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)
         if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
             return None
         sym = 0.5 * (cov + transposed)
-    trace = np.trace(sym, axis1=1, axis2=2)
+    trace = sym.trace(axis1=1, axis2=2)
     shift = 2 * np.maximum(EIGEN_FLOOR_RATIO * trace, EIGEN_FLOOR_ABS)
     try:
-        np.linalg.cholesky(sym - shift[:, None, None] * np.eye(cov.shape[-1]))
+        np.linalg.cholesky(sym - shift[:, None, None] * _eye(cov.shape[-1]))
     except np.linalg.LinAlgError:
         return None
     return sym
+
+
+@functools.cache
+def _eye(d: int) -> FloatArray:
+    eye = np.eye(d)
+    eye.flags.writeable = False
+    return eye
 
 
 def is_spd(cov: FloatArray) -> bool:

@@ -178,8 +178,7 @@ class EpisodeRecorder:
             )
         est = belief.team_estimate()
         plans = out.decision.plans
-        self.team.append(
-            1,
+        self.team.append_row(
             step=k,
             time=obs.time,
             mse=mse(est.mean[:, :2], truth[:, :2]),
@@ -192,7 +191,7 @@ class EpisodeRecorder:
             n_solver_failures=sum(not p.success for p in plans),
             solver_iterations=sum(p.iterations for p in plans),
         )
-        self.timing.append(1, step=k, plan_ms=out.decision.plan_ms)
+        self.timing.append_row(step=k, plan_ms=out.decision.plan_ms)
         n = obs.n_robots
         self.robots.append(
             n,

@@ -90,6 +90,16 @@ class ColumnTable:
             column[start:end] = values[name]  # NumPy converts and broadcasts in place
         self._rows = end
 
+    def append_row(self, **values: Any) -> None:
+        """Append one row of scalars (the per-step team and timing rows)."""
+        row = self._rows
+        columns = self._columns
+        if row == len(next(iter(columns.values()))):
+            self._grow(row + 1)
+        for name, column in columns.items():
+            column[row] = values[name]
+        self._rows = row + 1
+
     def _grow(self, rows: int) -> None:
         """Double the columns (at least to ``rows``), keeping the rows written so far."""
         for name, column in self._columns.items():
