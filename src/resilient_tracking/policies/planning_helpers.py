@@ -144,7 +144,7 @@ class PlanningPolicy(Policy):
                 fallback="safe",
             )
         controls = result.controls
-        if not result.success or not np.all(np.isfinite(controls)):
+        if not result.success or not np.isfinite(controls).all():
             controls, actions = safe_action(safe)
             result = replace(result, controls=controls, success=False, fallback="safe")
             for i, action in zip(robots, actions, strict=True):

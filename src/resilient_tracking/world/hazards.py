@@ -17,12 +17,13 @@ if TYPE_CHECKING:
 
 def gaussian_pdf(x: np.ndarray, mu: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     """Density of ``N(mu, sigma)`` at the rows of ``x``."""
-    return _pdf(x, mu, np.linalg.inv(sigma), 2 * math.pi * math.sqrt(np.linalg.det(sigma)))
+    inv, norm = np.linalg.inv(sigma), 2 * math.pi * math.sqrt(np.linalg.det(sigma))
+    return _pdf(np.atleast_2d(x), mu, inv, norm)
 
 
 def _pdf(x: np.ndarray, mu: np.ndarray, inv: np.ndarray, norm: float) -> np.ndarray:
-    """:func:`gaussian_pdf` with ``Σ⁻¹`` and ``2π √det Σ`` given."""
-    diff = np.atleast_2d(x) - mu
+    """:func:`gaussian_pdf` with ``Σ⁻¹`` and ``2π √det Σ`` given, at the rows of ``x`` (2-D)."""
+    diff = x - mu
     m2 = np.einsum("ni,ij,nj->n", diff, inv, diff)
     return np.exp(-0.5 * m2) / norm
 

@@ -124,7 +124,8 @@ class World:
         distance = np.sqrt((offsets * offsets).sum(axis=-1))  # as np.linalg.norm(axis=-1) sums
         sensing_ok = self.capability_ok("sensing")
         measured = sensing_ok[:, None] & self.sensor.in_range(distance)
-        z[~measured] = np.nan
+        if not measured.all():
+            z[~measured] = np.nan
         obs = TeamObservation(
             step=self.step_index,
             time=self.time,
