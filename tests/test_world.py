@@ -372,3 +372,34 @@ def test_observe_reports_truth_free_fields() -> None:
     obs.positions[:] = 99.0
     obs.links[:] = False
     assert world.robot_positions.max() < 2 and world.links[0, 1]
+
+
+def test_the_worlds_observations_pass_the_checks_they_skip() -> None:
+    """``World.observe`` builds observations without ``TeamObservation``'s checks: every field
+    must be what the checked constructor would make of it, attacks and recoveries included."""
+    from dataclasses import fields
+
+    from resilient_tracking import scenarios
+    from resilient_tracking.observation import TeamObservation
+    from resilient_tracking.scenario import load_scenario
+
+    world = World(load_scenario(scenarios.folder() / "combined-temp.yaml"), 3)
+    seen = {"attacks": 0, "recoveries": 0}
+    for step in range(200):
+        obs = world.observe()
+        checked = TeamObservation(**{f.name: getattr(obs, f.name) for f in fields(obs)})
+        for f in fields(obs):
+            made, expected = getattr(obs, f.name), getattr(checked, f.name)
+            assert type(made) is type(expected), f.name
+            if isinstance(made, np.ndarray):
+                assert made.dtype == expected.dtype and made.shape == expected.shape, f.name
+                np.testing.assert_array_equal(made, expected)
+            else:
+                assert made == expected, f.name
+        seen["attacks"] += len(obs.attacks)
+        seen["recoveries"] += len(obs.recoveries)
+        # robots walk into the zones, then out again (so temporary failures recover)
+        zones = [world.zones[i % len(world.zones)] for i in range(world.n_robots)]
+        toward = np.array([z.center for z in zones]) - world.robot_positions
+        world.step(toward if step < 100 else -toward)
+    assert seen["attacks"] and seen["recoveries"], seen

@@ -126,7 +126,7 @@ class World:
         measured = sensing_ok[:, None] & self.sensor.in_range(distance)
         if not measured.all():
             z[~measured] = np.nan
-        obs = TeamObservation(
+        obs = TeamObservation.from_simulator(
             step=self.step_index,
             time=self.time,
             positions=positions.copy(),
