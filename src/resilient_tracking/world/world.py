@@ -101,7 +101,10 @@ class World:
     @property
     def target_states(self) -> np.ndarray:
         """(N, 4) true ``[px, py, vx, vy]``."""
-        return np.array([t.state for t in self.targets])
+        states = np.empty((len(self.targets), 4))
+        for row, target in zip(states, self.targets, strict=True):
+            row[:2], row[2:] = target.position, target.velocity
+        return states
 
     def capability_ok(self, kind: FailureKind) -> np.ndarray:
         """``(m,)`` bool: whose sensor (``kind="sensing"``) or radio (``"comm"``) works now."""
