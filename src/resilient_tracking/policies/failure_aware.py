@@ -77,6 +77,15 @@ class FailureAwarePolicy(PlanningPolicy):
         self.cooldown_until = -1
         #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
         self.last_weights = np.zeros((config.n_robots, 5))
+        #: the weights of each situation, computed once (the parameters are fixed at creation)
+        self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
+        #: the last zone rows made: (the zones they came from, w5, alone) and the rows
+        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, tuple[np.ndarray, ...]] = (
+            (),
+            np.nan,
+            False,
+            (),
+        )
 
     # ------------------------------------------------------------------ the tick
 
@@ -94,17 +103,10 @@ class FailureAwarePolicy(PlanningPolicy):
             if len(robots) == 1 and obs.comm_persistence[robots[0]] == "permanent":
                 self._circle(robots[0], knowledge, obs, decision)
                 continue
-            if len(robots) == 1:
-                weights = as_array(self.params.cooldown if cooling else self.params.safe)
-                mode = "individual"
-            else:
-                weights = (
-                    as_array(self.params.cooldown)
-                    if cooling
-                    else adaptive_weights(self.params.risky, self.params.safe, attacked, m)
-                )
-                mode = "cooldown" if cooling else "league"
-            szones, czones = self._zone_rows(knowledge, weights[4], alone=len(robots) == 1)
+            alone = len(robots) == 1
+            weights = self._situation_weights(cooling, alone, attacked, m)
+            mode = "individual" if alone else "cooldown" if cooling else "league"
+            szones, czones = self._zone_rows(knowledge, weights[4], alone)
             sensing = obs.sensing_ok[robots].astype(float)
             q = self.tracking_inputs(belief, obs, robots, k, weights[:4], sensing, szones, czones)
             decision.controls[robots] = self.solve(robots, q, obs.step, decision)
@@ -115,14 +117,44 @@ class FailureAwarePolicy(PlanningPolicy):
 
     # ------------------------------------------------------------------ pieces
 
+    def _situation_weights(self, cooling: bool, alone: bool, attacked: int, m: int) -> np.ndarray:
+        """``[w1..w5]``: alone, the safe weights; a league, eq. 10 between risky and safe by
+        the fraction of attacked robots; the cool-down weights while cooling (a copy)."""
+        key = (cooling, alone, attacked, m)
+        if key not in self._weights:
+            p = self.params
+            if alone or cooling:
+                weights = as_array(p.cooldown if cooling else p.safe)
+            else:
+                weights = adaptive_weights(p.risky, p.safe, attacked, m)
+            self._weights[key] = weights
+        return self._weights[key].copy()
+
     def _zone_rows(
         self, knowledge: KnowledgeBase, w5: float, alone: bool
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Parameter rows of the known zones (eqs. 7c, 7d with ``r_safe = r + w5``).
+        """Parameter rows of the known zones (eqs. 7c, 7d with ``r_safe = r + w5``); the last
+        tick's rows again when the zones (immutable estimates), ``w5`` and ``alone`` are.
 
         A robot alone has no teammate to be jammed from; it keeps clear of known comm zones as
         of disks of radius ``comm_clearance`` (plus any observed clearance) instead.
         """
+        zones = tuple(knowledge.zones.values())
+        last_zones, last_w5, last_alone, last_rows = self._last_rows
+        if (
+            w5 == last_w5
+            and alone == last_alone
+            and len(zones) == len(last_zones)
+            and all(z is last for z, last in zip(zones, last_zones, strict=True))
+        ):
+            return last_rows[0].copy(), last_rows[1].copy()
+        rows = self._make_zone_rows(knowledge, w5, alone)
+        self._last_rows = (zones, w5, alone, rows)
+        return rows[0].copy(), rows[1].copy()
+
+    def _make_zone_rows(
+        self, knowledge: KnowledgeBase, w5: float, alone: bool
+    ) -> tuple[np.ndarray, np.ndarray]:
         rows_s = [
             sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=self.beta1)
             for z in knowledge.of_kind("sensing")
