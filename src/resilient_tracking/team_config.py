@@ -33,8 +33,10 @@ class TeamConfig:
         self, robots: list[int], positions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-axis bounds on ``u`` that respect ``u_max`` and keep ``x + u dt`` in the box."""
-        umax = self.u_max[robots][:, None]
-        x = positions[robots]
+        if len(positions) == len(self.u_max) and list(robots) == list(range(len(positions))):
+            umax, x = self.u_max[:, None], positions  # the whole team, in order: no copies
+        else:
+            umax, x = self.u_max[robots][:, None], positions[robots]
         lower = np.minimum(np.maximum(-umax, (self.lower - x) / self.dt), 0.0)
         upper = np.maximum(np.minimum(umax, (self.upper - x) / self.dt), 0.0)
         return lower, upper

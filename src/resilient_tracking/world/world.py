@@ -52,7 +52,8 @@ def clip_velocities(
     clipping to its commands as the simulator does.
     """
     bound = u_max[:, None]
-    u = np.where(np.isnan(controls), 0.0, controls)  # ±inf are clipped to the bound below
+    nan = np.isnan(controls)
+    u = np.where(nan, 0.0, controls) if nan.any() else controls  # ±inf: clipped below
     u = np.minimum(np.maximum(u, -bound), bound)
     nxt = np.minimum(np.maximum(positions + u * dt, lower), upper)
     return (nxt - positions) / dt
