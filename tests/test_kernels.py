@@ -14,12 +14,14 @@ from helpers import SCENARIOS
 from resilient_tracking.cli import main
 from resilient_tracking.sim.kernels import numeric_kernels
 
-QUERY = "from resilient_tracking.sim.kernels import numeric_kernels as k; print(k()['openblas'])"
+QUERY = "from resilient_tracking.sim.kernels import numeric_kernels as k; print(k()['blas_core'])"
 
 
 def test_the_kernels_are_named():
     kernels = numeric_kernels()
-    assert kernels["openblas"] != "unknown"  # NumPy's wheels bundle OpenBLAS
+    assert kernels["blas"] != "unknown"
+    if str(kernels["blas"]).startswith("openblas"):  # NumPy's wheels; it names its kernels
+        assert kernels["blas_core"] != "unknown"
     assert isinstance(kernels["simd"], list)
 
 

@@ -1,48 +1,39 @@
 """Which numeric kernels this process runs: they decide the last bits of every table.
 
-OpenBLAS picks its kernels by CPU (an AVX-512 kernel rounds differently from an AVX2 one) and
-NumPy its SIMD loops, so the same scenario and seed give the same tables bit for bit only on
-the same kernels (docs/model.md §9). Run manifests record them.
+The BLAS library picks its kernels by CPU (OpenBLAS's AVX-512 kernels round differently from
+its AVX2 ones) and NumPy its SIMD loops, so the same scenario and seed give the same tables
+bit for bit only on the same kernels (docs/model.md §9). Run manifests record them.
+``threadpoolctl`` finds the BLAS NumPy loaded, whichever it is (a wheel's OpenBLAS, MKL, a
+system library).
 """
 
 from __future__ import annotations
 
-import ctypes
 import functools
-import glob
 import importlib
 import os
 
 import numpy as np
-
-#: OpenBLAS's "which kernels" query, by the symbol names NumPy's bundled builds use
-_CORENAME_SYMBOLS = (
-    "scipy_openblas_get_corename64_",
-    "scipy_openblas_get_corename",
-    "openblas_get_corename64_",
-    "openblas_get_corename",
-)
+from threadpoolctl import threadpool_info
 
 
 @functools.cache
 def numeric_kernels() -> dict[str, object]:
-    """``{"openblas": core name or "unknown", "simd": NumPy's SIMD levels in use}``."""
-    return {"openblas": _openblas_core(), "simd": _numpy_simd()}
+    """``{"blas": library and version, "blas_core": the kernels it chose (OpenBLAS's core
+    name) or "unknown", "simd": NumPy's SIMD levels in use}``."""
+    return {**_numpy_blas(), "simd": _numpy_simd()}
 
 
-def _openblas_core() -> str:
-    folder = os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs")
-    for path in sorted(glob.glob(os.path.join(folder, "*openblas*"))):
-        try:
-            library = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for symbol in _CORENAME_SYMBOLS:
-            query = getattr(library, symbol, None)
-            if query is not None:
-                query.restype = ctypes.c_char_p
-                return str(query().decode())
-    return "unknown"
+def _numpy_blas() -> dict[str, str]:
+    libraries = [lib for lib in threadpool_info() if lib.get("user_api") == "blas"]
+    # NumPy's own first (numpy/ or numpy.libs/): SciPy may have loaded one of its own beside it
+    numpy_folder = os.path.dirname(os.path.abspath(np.__file__))
+    libraries.sort(key=lambda lib: not str(lib.get("filepath", "")).startswith(numpy_folder))
+    if not libraries:
+        return {"blas": "unknown", "blas_core": "unknown"}
+    lib = libraries[0]
+    name = " ".join(str(lib[key]) for key in ("internal_api", "version") if lib.get(key))
+    return {"blas": name, "blas_core": str(lib.get("architecture") or "unknown")}
 
 
 def _numpy_simd() -> list[str]:
