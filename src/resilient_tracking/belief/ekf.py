@@ -139,12 +139,12 @@ class ExtendedKalmanFilter:
         # The covariance is then formed in Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, where
         # K R Kᵀ = F J Fᵀ: a sum of congruences, so it stays positive definite numerically.
         m = _EYE2 + info @ cov[:, :2, :2]
-        f = np.swapaxes(np.linalg.solve(np.swapaxes(m, 1, 2), cov[:, :2, :]), 1, 2)  # (N, 4, 2)
+        f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
         kh = np.zeros((n, 4, 4))
         kh[:, :, :2] = f @ info
         i_kh = _EYE4 - kh
-        joseph = i_kh @ cov @ np.swapaxes(i_kh, 1, 2) + f @ info @ np.swapaxes(f, 1, 2)
+        joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f @ info @ f.swapaxes(1, 2)
         new_cov = _symmetrize(joseph)
         return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
 
@@ -188,4 +188,4 @@ _EYE2.flags.writeable = _EYE4.flags.writeable = False
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:
-    return np.asarray(0.5 * (cov + np.swapaxes(cov, -1, -2)), dtype=float)
+    return np.asarray(0.5 * (cov + cov.swapaxes(-1, -2)), dtype=float)

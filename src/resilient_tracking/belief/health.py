@@ -94,7 +94,7 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     stack, as the filter leaves it, comes back as itself: ``(P + Pᵀ)/2`` would be ``P``."""
     if not np.isfinite(cov).all():
         return None
-    transposed = np.swapaxes(cov, 1, 2)
+    transposed = cov.swapaxes(1, 2)
     if (cov == transposed).all():
         sym = cov
     else:

@@ -143,8 +143,9 @@ class RangeBearingSensor(MeasurementModel):
         d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
         d = np.sqrt(d2)
         out = np.empty(d.shape + (2, 2))
-        out[..., 0, 0], out[..., 0, 1] = dx / d, dy / d  # range row
-        out[..., 1, 0], out[..., 1, 1] = -dy / d2, dx / d2  # bearing row
+        out[..., 0, :] = delta / d[..., None]  # range row [dx, dy] / d
+        out[..., 1, :] = delta[..., ::-1] / d2[..., None]  # bearing row [−dy, dx] / d²:
+        np.negative(out[..., 1, 0], out=out[..., 1, 0])  # (−dy)/d² is −(dy/d²) exactly
         return out
 
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
