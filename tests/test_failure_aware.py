@@ -296,3 +296,31 @@ def test_combined_zones_are_learned_progressively(name):
     assert len(first) >= 2
     assert first.is_monotonic_increasing and first.iloc[0] < first.iloc[-1]
     assert first.iloc[0] > 0  # nothing is known at the start
+
+
+def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
+    """The rows are reused only while nothing they depend on changed; each call gets copies."""
+    from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+
+    def zone(key: str, kind: str, x: float) -> ZoneEstimate:
+        return ZoneEstimate(
+            key, kind, np.array([x, 0.0]), 0.1 * np.eye(2), 0.4, "permanent", "attack", 1
+        )
+
+    s = scenario()
+    policy = FailureAwarePolicy(TeamConfig.from_scenario(s), s.policy.failure_aware)
+    fresh = FailureAwarePolicy(TeamConfig.from_scenario(s), s.policy.failure_aware)
+    knowledge = KnowledgeBase()
+    knowledge.learn(zone("zone0", "sensing", 1.0))
+    knowledge.learn(zone("zone1", "comm", 2.0))
+    calls = [(0.1, False), (0.1, False), (0.2, False), (0.2, True)]
+    for w5, alone in calls:
+        rows = policy._zone_rows(knowledge, w5, alone)
+        expected = fresh._make_zone_rows(knowledge, w5, alone)
+        for got, want in zip(rows, expected, strict=True):
+            np.testing.assert_array_equal(got, want)
+        rows[0][:] = -1.0  # a caller's change must not reach the next call
+    knowledge.learn(zone("zone2", "sensing", 3.0))
+    sensing, comm = policy._zone_rows(knowledge, 0.2, True)
+    assert len(sensing) == 3 and len(comm) == 0  # alone: the comm zone becomes a disc
+    assert len(policy._zone_rows(knowledge, 0.2, False)[0]) == 2

@@ -35,6 +35,9 @@ from resilient_tracking.policies.planning_helpers import PlanningPolicy
 from resilient_tracking.scenario import FailureAwareParams
 from resilient_tracking.team_config import TeamConfig
 
+#: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``)
+ZoneTables = tuple[np.ndarray, np.ndarray]
+
 
 @register_policy("failure_aware")
 class FailureAwarePolicy(PlanningPolicy):
@@ -79,13 +82,8 @@ class FailureAwarePolicy(PlanningPolicy):
         self.last_weights = np.zeros((config.n_robots, 5))
         #: the weights of each situation, computed once (the parameters are fixed at creation)
         self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
-        #: the last zone rows made: (the zones they came from, w5, alone) and the rows
-        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, tuple[np.ndarray, ...]] = (
-            (),
-            np.nan,
-            False,
-            (),
-        )
+        #: the last zone rows made: the zones they came from, w5, alone, and the two tables
+        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, ZoneTables] | None = None
 
     # ------------------------------------------------------------------ the tick
 
@@ -140,21 +138,18 @@ class FailureAwarePolicy(PlanningPolicy):
         of disks of radius ``comm_clearance`` (plus any observed clearance) instead.
         """
         zones = tuple(knowledge.zones.values())
-        last_zones, last_w5, last_alone, last_rows = self._last_rows
+        last = self._last_rows
         if (
-            w5 == last_w5
-            and alone == last_alone
-            and len(zones) == len(last_zones)
-            and all(z is last for z, last in zip(zones, last_zones, strict=True))
+            last is None
+            or (last[1], last[2]) != (w5, alone)
+            or len(last[0]) != len(zones)
+            or any(z is not known for z, known in zip(zones, last[0], strict=True))
         ):
-            return last_rows[0].copy(), last_rows[1].copy()
-        rows = self._make_zone_rows(knowledge, w5, alone)
-        self._last_rows = (zones, w5, alone, rows)
-        return rows[0].copy(), rows[1].copy()
+            last = self._last_rows = (zones, w5, alone, self._make_zone_rows(knowledge, w5, alone))
+        sensing, comm = last[3]
+        return sensing.copy(), comm.copy()
 
-    def _make_zone_rows(
-        self, knowledge: KnowledgeBase, w5: float, alone: bool
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _make_zone_rows(self, knowledge: KnowledgeBase, w5: float, alone: bool) -> ZoneTables:
         rows_s = [
             sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=self.beta1)
             for z in knowledge.of_kind("sensing")
