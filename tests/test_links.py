@@ -173,6 +173,24 @@ def test_components(n: int, edges: list[tuple[int, int]], expected: list[list[in
     assert components(adjacency(n, edges)) == expected
 
 
+def test_components_match_scipy_on_random_graphs() -> None:
+    """Sparse to complete graphs (the complete ones take the one-league shortcut), links in
+    one direction only, any diagonal: the same leagues as SciPy's connected components."""
+    from scipy.sparse.csgraph import connected_components
+
+    rng = np.random.default_rng(0)
+    complete = 0
+    for _ in range(500):
+        n = int(rng.integers(1, 9))
+        a = rng.random((n, n)) < rng.choice([0.1, 0.5, 0.9, 1.0])
+        undirected = a | a.T
+        count, labels = connected_components(undirected, directed=False)
+        expected = sorted(np.flatnonzero(labels == c).tolist() for c in range(count))
+        assert components(a) == expected
+        complete += bool((undirected | np.eye(n, dtype=bool)).all())
+    assert complete > 50  # the shortcut was exercised
+
+
 def test_components_of_link_matrix_with_failed_radio() -> None:
     positions = pts((0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (10.0, 0.0))
     comm_ok = np.array([True, False, True, True])
