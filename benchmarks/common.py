@@ -78,5 +78,15 @@ def table(rows: list[list[Any]], header: list[str]) -> str:
 def save(name: str, data: dict[str, Any]) -> Path:
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / f"{name}.json"
-    path.write_text(json.dumps(data, indent=1, default=float) + "\n")
+    path.write_text(json.dumps(data, indent=1, default=_plain) + "\n")
     return path
+
+
+def _plain(value: Any) -> Any:
+    """JSON for what ``json`` does not know: NumPy numbers and arrays, and classes (such as a
+    structure's sensor model) by name."""
+    if isinstance(value, type):
+        return value.__name__
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return float(value)

@@ -14,7 +14,6 @@ IPOPT only (same scenario, same seeds, only ``planner.solver`` differs).
 from __future__ import annotations
 
 import argparse
-import functools
 import time
 from typing import Any
 
@@ -39,11 +38,16 @@ def scenario(name: str, solver: str) -> Scenario:
 TIGHT = "ipopt-tol1e-9"
 
 
+class TightIpoptPlanner(LeaguePlanner):
+    """The league planner with IPOPT's tolerance at 1e-9 (the scenario picks IPOPT only)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **{**kwargs, "options": {"ipopt": {"tol": 1e-9}}})
+
+
 def timed(name: str, solver: str, seed: int) -> dict[str, Any]:
     if solver == TIGHT:
-        episode.LeaguePlanner = functools.partial(  # type: ignore[misc,assignment]
-            LeaguePlanner, options={"ipopt": {"tol": 1e-9}}
-        )
+        episode.LeaguePlanner = TightIpoptPlanner  # type: ignore[misc]
         s = scenario(name, "ipopt")
     else:
         episode.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
