@@ -237,7 +237,9 @@ class World:
         possible = link_matrix(
             positions, radio, np.zeros((0,) + jammed.shape[1:], bool), self.scenario.comm_range
         )
-        links = possible & ~jammed.any(axis=0) if jammed.size else possible
+        if not jammed.size:  # no jammer: no robot is isolated by jamming, none recovers from it
+            return possible
+        links = possible & ~jammed.any(axis=0)
         any_possible = cast(list[bool], possible.any(axis=1).tolist())
         any_link = cast(list[bool], links.any(axis=1).tolist())
         for robot in range(self.n_robots):
