@@ -80,12 +80,13 @@ class TeamBelief:
         self.last_step = obs.step
         for k, league in enumerate(self.leagues):
             sensing = [i for i in league if obs.sensing_ok[i]]
-            if len(sensing) == len(obs.positions):  # the whole team, in order: no copies
+            if not sensing:
+                continue
+            if len(sensing) == len(obs.positions):  # the whole team (leagues are sorted): no copies
                 positions, measurements = obs.positions, obs.measurements
             else:
                 positions, measurements = obs.positions[sensing], obs.measurements[sensing]
-            if sensing:
-                self.estimates[k] = self.ekf.update(self.estimates[k], positions, measurements)
+            self.estimates[k] = self.ekf.update(self.estimates[k], positions, measurements)
         events += self._check_health(obs.step)
         if self.learns_zones:
             self._share_knowledge()
