@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import shutil
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from resilient_tracking import scenarios
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.catalog import (
     QUICK_MAX_PAIRS,
@@ -230,3 +234,34 @@ def test_targets_hold_or_fail_as_the_numbers_say():
     assert [c.holds for c in check(exp, winning)] == [True, True, True]
     winning["stragglers"] = 2
     assert [c.holds for c in check(exp, winning)] == [True, True, False]
+
+
+def test_suite_wins_splits_the_wins_by_comm_zone(tmp_path):
+    """tools/suite_wins.py counts a win only where failure-aware is strictly lower, per kind."""
+    tool = Path(__file__).resolve().parents[1] / "tools" / "suite_wins.py"
+    spec = importlib.util.spec_from_file_location("suite_wins", tool)
+    assert spec is not None and spec.loader is not None
+    suite_wins = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(suite_wins)
+
+    suite, runs = tmp_path / "suite", tmp_path / "runs"
+    suite.mkdir()
+    runs.mkdir()
+    shutil.copy(scenarios.path("sensing-temp"), suite / "g00.yaml")
+    shutil.copy(scenarios.path("comm-temp"), suite / "g01.yaml")
+    shutil.copy(scenarios.path("combined-temp"), suite / "g02.yaml")
+    rows = [  # (scenario, policy, trace, mse): g00 wins both, g01 ties in trace, g02 loses MSE
+        ("g00", "failure_aware", 1.0, 1.0),
+        ("g00", "vanilla", 2.0, 2.0),
+        ("g01", "failure_aware", 1.0, 1.0),
+        ("g01", "vanilla", 1.0, 3.0),
+        ("g02", "failure_aware", 1.0, 5.0),
+        ("g02", "vanilla", 2.0, 4.0),
+    ]
+    pd.DataFrame(rows, columns=["scenario", "policy", "trace", "mse"]).to_csv(
+        runs / "runs.csv", index=False
+    )
+    table = suite_wins.suite_rows(suite, runs).set_index("kind")
+    assert list(table.index) == ["sensing only", "with a comm zone", "with a comm zone"]
+    assert table.trace_win.tolist() == [True, False, True]
+    assert table.mse_win.tolist() == [True, True, False]
