@@ -5,14 +5,17 @@ from __future__ import annotations
 import json
 import os
 import platform
+import shlex
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from helpers import SCENARIOS
 from resilient_tracking.cli import main
-from resilient_tracking.sim.kernels import numeric_kernels
+from resilient_tracking.experiments import report
+from resilient_tracking.sim.kernels import PINNED_ENV, numeric_kernels, pinned, pinned_prefix
 
 QUERY = "from resilient_tracking.sim.kernels import numeric_kernels as k; print(k()['blas_core'])"
 
@@ -41,3 +44,25 @@ def test_a_run_manifest_records_the_kernels(tmp_path):
     assert main([*args, "--no-figures", "-q"]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["kernels"] == json.loads(json.dumps(numeric_kernels()))
+
+
+def test_the_pinned_prefix_names_the_pin_only_when_this_process_has_it(monkeypatch):
+    for key in PINNED_ENV:
+        monkeypatch.delenv(key, raising=False)
+    assert not pinned() and pinned_prefix() == ""
+    monkeypatch.setenv("OPENBLAS_CORETYPE", "Haswell")  # half the pin is not the pin
+    assert pinned_prefix() == ""
+    for key, value in PINNED_ENV.items():
+        monkeypatch.setenv(key, value)
+    assert pinned()
+    # the prefix runs a command the same way when pasted into a shell
+    assert shlex.split(pinned_prefix() + "rtrack") == [
+        *(f"{key}={value}" for key, value in PINNED_ENV.items()),
+        "rtrack",
+    ]
+
+
+def test_the_report_names_the_numeric_stack_it_was_made_with():
+    stack = report._numeric_stack()
+    assert stack.startswith(f"NumPy {np.__version__} (")
+    assert f"{numeric_kernels()['blas_core']} kernels" in stack

@@ -25,6 +25,7 @@ import pandas as pd
 from resilient_tracking import scenarios
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.kernels import PINNED_ENV, pinned
 from resilient_tracking.sim.records import TABLES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,12 +42,6 @@ SHIPPED = (
     "bench-complex",
 )
 SEED = 7
-#: OpenBLAS's AVX2 kernels and NumPy's SIMD loops without AVX-512, whatever the CPU.
-PINNED_ENV = {
-    "OPENBLAS_CORETYPE": "Haswell",
-    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
-}
-
 #: (scenario, policy) pairs fingerprinted, each over the scenario's full length at SEED.
 RUNS: list[tuple[str, str]] = [
     (name, policy) for name in SHIPPED for policy in ("failure_aware", "vanilla", "sog")
@@ -76,11 +71,6 @@ def fingerprints(runs: list[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]
         result = run_episode(scenario, policy=policy, seed=SEED)
         out[f"{name}/{policy}"] = {t: table_hash(result.tables[t]) for t in TABLES}
     return out
-
-
-def pinned() -> bool:
-    """Whether this process started with :data:`PINNED_ENV` (it must, before NumPy loads)."""
-    return all(os.environ.get(key) == value for key, value in PINNED_ENV.items())
 
 
 def main() -> None:

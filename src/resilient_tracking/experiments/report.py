@@ -14,6 +14,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import casadi
+import numpy as np
 import pandas as pd
 
 from resilient_tracking import __version__
@@ -32,6 +33,7 @@ from resilient_tracking.experiments.report_figures import (
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
 from resilient_tracking.sim.folders import write_text_atomic
+from resilient_tracking.sim.kernels import numeric_kernels, pinned_prefix
 from resilient_tracking.viz.io import RunData, load_run
 
 log = logging.getLogger(__name__)
@@ -142,6 +144,16 @@ def _source_revision() -> str:
     return f" (commit {done.stdout.strip()})" if done.returncode == 0 else ""
 
 
+def _numeric_stack() -> str:
+    """NumPy, its BLAS and the kernels it chose, and CasADi: with the CPU kind, what decides
+    the tables' last bits (docs/model.md §9)."""
+    kernels = numeric_kernels()
+    return (
+        f"NumPy {np.__version__} ({kernels['blas']}, {kernels['blas_core']} kernels), "
+        f"CasADi {casadi.CasadiMeta.version()}"
+    )
+
+
 #: Headline groups of the report: (experiment program or kind, how the line names them).
 GROUPS = (
     ("one_step", "claims hold with the paper's one-step program"),
@@ -198,9 +210,8 @@ def write_report(
     lines = [
         "# Reproduction report",
         "",
-        f"Produced by `{command}` with resilient-tracking {__version__}{_source_revision()}, "
-        "CasADi "
-        f"{casadi.CasadiMeta.version()}, Python {platform.python_version()} on "
+        f"Produced by `{pinned_prefix()}{command}` with resilient-tracking {__version__}"
+        f"{_source_revision()}, {_numeric_stack()}, Python {platform.python_version()} on "
         f"{platform.machine()} ({os.cpu_count()} cores).",
         "",
         *[line for h in headlines for line in (h, "")],

@@ -4,7 +4,9 @@ The BLAS library picks its kernels by CPU (OpenBLAS's AVX-512 kernels round diff
 its AVX2 ones) and NumPy its SIMD loops, so the same scenario and seed give the same tables
 bit for bit only on the same kernels (docs/model.md §9). Run manifests record them.
 ``threadpoolctl`` finds the BLAS NumPy loaded, whichever it is (a wheel's OpenBLAS, MKL, a
-system library).
+system library). :data:`PINNED_ENV`, set before Python starts, makes any x86-64 CPU with AVX2
+and FMA run the same kernels (with the same wheels): the golden tables and the committed
+report are made that way.
 """
 
 from __future__ import annotations
@@ -12,9 +14,30 @@ from __future__ import annotations
 import functools
 import importlib
 import os
+import shlex
 
 import numpy as np
 from threadpoolctl import threadpool_info
+
+#: OpenBLAS's AVX2 kernels and NumPy's SIMD loops without AVX-512, whatever the x86-64 CPU;
+#: read when NumPy loads, so they must be in the environment before Python starts.
+PINNED_ENV = {
+    "OPENBLAS_CORETYPE": "Haswell",
+    "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR",
+}
+
+
+def pinned() -> bool:
+    """Whether this process started with :data:`PINNED_ENV`."""
+    return all(os.environ.get(key) == value for key, value in PINNED_ENV.items())
+
+
+def pinned_prefix() -> str:
+    """``PINNED_ENV`` as a shell prefix (``"OPENBLAS_CORETYPE=Haswell … "``) when this process
+    runs with it, else ``""``: what to put before a command to run it the same way."""
+    if not pinned():
+        return ""
+    return "".join(f"{key}={shlex.quote(value)} " for key, value in PINNED_ENV.items())
 
 
 @functools.cache
