@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import re
 import shutil
 from dataclasses import replace
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -261,3 +263,17 @@ def test_quick_reproduction_supports_the_papers_claims(quick_claims, name):
         gap = any(n == name and key in statement for n, key in KNOWN_GAPS)
         if not gap:
             assert c.holds, f"{name}: {statement}: {c.evidence}"
+
+
+def test_the_committed_report_and_its_constraints_name_the_same_wheels():
+    """docs/results/constraints.txt must be the environment the committed report names."""
+    results = Path(__file__).resolve().parents[1] / "docs" / "results"
+    header = (results / "report.md").read_text().splitlines()[2]
+    named = dict(re.findall(r"(NumPy|CasADi) (\S+?)[ ,]", header))
+    pins = dict(
+        line.lower().split("==", 1)
+        for line in (results / "constraints.txt").read_text().splitlines()
+        if "==" in line and not line.startswith("#")
+    )
+    assert named == {"NumPy": pins["numpy"], "CasADi": pins["casadi"]}
+    assert "OPENBLAS_CORETYPE=Haswell" in header  # made with the kernels pinned
