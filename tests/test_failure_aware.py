@@ -324,3 +324,31 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
     sensing, comm = policy._zone_rows(knowledge, 0.2, True)
     assert len(sensing) == 3 and len(comm) == 0  # alone: the comm zone becomes a disc
     assert len(policy._zone_rows(knowledge, 0.2, False)[0]) == 2
+
+
+@pytest.mark.parametrize("guard", [True, False])
+def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
+    """``guard_temporary_jammers`` (default on, the paper's eq. 7d for every known comm zone)
+    drops only the rows of comm zones known to be temporary, and only for leagues."""
+    from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+
+    def comm(key: str, persistence: str, x: float) -> ZoneEstimate:
+        return ZoneEstimate(
+            key, "comm", np.array([x, 0.0]), 0.1 * np.eye(2), 0.2, persistence, "attack", 1
+        )
+
+    s = scenario()
+    params = s.policy.failure_aware.model_copy(update={"guard_temporary_jammers": guard})
+    policy = FailureAwarePolicy(TeamConfig.from_scenario(s), params)
+    knowledge = KnowledgeBase()
+    for key, persistence, x in [
+        ("a", "temporary", 1.0),
+        ("b", "permanent", 5.0),  # far apart: three zones, not one (Mahalanobis)
+        ("c", "unknown", 9.0),
+    ]:
+        knowledge.learn(comm(key, persistence, x))
+    _, league_rows = policy._make_zone_rows(knowledge, 0.0, alone=False)
+    kept = {float(row[0]) for row in league_rows}  # each row starts with the zone's x
+    assert kept == ({1.0, 5.0, 9.0} if guard else {5.0, 9.0})
+    discs, _ = policy._make_zone_rows(knowledge, 0.0, alone=True)
+    assert len(discs) == 3  # a robot alone keeps clear of every known comm zone either way

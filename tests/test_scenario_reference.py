@@ -37,7 +37,9 @@ def test_every_policy_parameter_appears_with_the_codes_default():
     text = render()
     for name, field in FailureAwareParams.model_fields.items():
         row = _row(text, "policy.failure_aware", name)
-        if isinstance(field.default, int | float):
+        if isinstance(field.default, bool):  # written as YAML writes it
+            assert f"`{str(field.default).lower()}`" in row, row
+        elif isinstance(field.default, int | float):
             assert f"`{field.default}`" in row, row
     assert "`50.0`" in _row(text, "policy.vanilla", "w_track")
     assert VanillaParams().w_track == 50.0

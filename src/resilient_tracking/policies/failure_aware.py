@@ -135,7 +135,9 @@ class FailureAwarePolicy(PlanningPolicy):
         tick's rows again when the zones (immutable estimates), ``w5`` and ``alone`` are.
 
         A robot alone has no teammate to be jammed from; it keeps clear of known comm zones as
-        of disks of radius ``comm_clearance`` (plus any observed clearance) instead.
+        of disks of radius ``comm_clearance`` (plus any observed clearance) instead. With
+        ``guard_temporary_jammers`` off, a league has no rows for comm zones known to be
+        temporary.
         """
         zones = tuple(knowledge.zones.values())
         last = self._last_rows
@@ -159,7 +161,7 @@ class FailureAwarePolicy(PlanningPolicy):
             if alone:
                 radius = self.params.comm_clearance + z.clearance
                 rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=self.beta2))
-            else:
+            elif self.params.guard_temporary_jammers or z.persistence != "temporary":
                 rows_c.append(
                     comm_row(z.mean, z.cov, z.size, beta=self.beta2, clearance=z.clearance)
                 )

@@ -148,6 +148,14 @@ class FailureAwareParams(Strict):
         CircleFitParams(),
         description="When a silent robot's observed path counts as a circle (Alg. 3).",
     )
+    guard_temporary_jammers: bool = Field(
+        True,
+        description=(
+            "Keep league links clear (eq. 7d) of comm zones the league knows to be temporary, as"
+            " the paper does; false: such a zone costs only a short outage, so leagues plan as"
+            " if it were not there (docs/generalization.md measures both)."
+        ),
+    )
     inferred_delta2: PositiveFloat = Field(
         0.3,
         description=(
