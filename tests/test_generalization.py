@@ -258,9 +258,8 @@ def test_suite_wins_splits_the_wins_by_comm_zone(tmp_path):
         ("g02", "failure_aware", 1.0, 5.0),
         ("g02", "vanilla", 2.0, 4.0),
     ]
-    pd.DataFrame(rows, columns=["scenario", "policy", "trace", "mse"]).to_csv(
-        runs / "runs.csv", index=False
-    )
+    table = pd.DataFrame(rows, columns=["tag_scenario", "policy", "trace", "mse"])
+    table.assign(seed=1).to_csv(runs / "runs.csv", index=False)
     table = suite_wins.suite_rows(suite, runs).set_index("kind")
     assert list(table.index) == ["sensing only", "with a comm zone", "with a comm zone"]
     assert table.trace_win.tolist() == [True, False, True]

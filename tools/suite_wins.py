@@ -18,8 +18,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from resilient_tracking.experiments.generalization import wilson
+from resilient_tracking.experiments.generalization import paired, wilson
 from resilient_tracking.scenario import load_scenario
+
+PAIR = ("failure_aware", "vanilla")
 
 
 def kind_of(scenario_file: Path) -> str:
@@ -29,19 +31,17 @@ def kind_of(scenario_file: Path) -> str:
 
 
 def suite_rows(suite: Path, runs: Path) -> pd.DataFrame:
-    """One row per scenario: its kind and whether failure-aware won in trace and in MSE."""
+    """One row per scenario: its kind and whether failure-aware won in trace and in MSE
+    (the two policies' runs paired by scenario and seed, then averaged over seeds)."""
     table = pd.read_csv(runs / "runs.csv")
-    means = table.groupby(["policy", "scenario"])[["trace", "mse"]].mean()
-    fa, va = means.loc["failure_aware"], means.loc["vanilla"]
-    names = fa.index.intersection(va.index)
-    return pd.DataFrame(
-        {
-            "suite": suite.name,
-            "kind": [kind_of(suite / f"{name}.yaml") for name in names],
-            "trace_win": (fa.trace[names] < va.trace[names]).to_numpy(),
-            "mse_win": (fa.mse[names] < va.mse[names]).to_numpy(),
-        }
-    )
+    wins = {}
+    for metric in ("trace", "mse"):
+        means = paired(table, metric, PAIR).groupby(level="tag_scenario").mean()
+        wins[f"{metric}_win"] = means["failure_aware"] < means["vanilla"]
+    rows = pd.DataFrame(wins)
+    rows.insert(0, "kind", [kind_of(suite / f"{name}.yaml") for name in rows.index])
+    rows.insert(0, "suite", suite.name)
+    return rows.reset_index(drop=True)
 
 
 def main() -> None:
