@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from resilient_tracking.models.geometry import row_norms
+
 
 def mse(estimated_positions: np.ndarray, true_positions: np.ndarray) -> float:
     """``(1/N) Σ_j ‖ŷ_j − y_j‖²`` over target positions (N, 2)."""
@@ -13,4 +15,4 @@ def mse(estimated_positions: np.ndarray, true_positions: np.ndarray) -> float:
 
 def effort(controls: np.ndarray) -> float:
     """``Σ_i ‖u_i‖`` of the applied velocities (M, 2)."""
-    return float(np.sqrt((controls * controls).sum(axis=1)).sum())  # np.linalg.norm's own sums
+    return float(row_norms(controls).sum())

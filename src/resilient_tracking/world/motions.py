@@ -3,10 +3,9 @@ with white acceleration noise, a circle and waypoints."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from resilient_tracking.models.geometry import vector_length
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.scenario import Circle, ConstantVelocity, NoisyConstantVelocity, Waypoints
 from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
@@ -49,7 +48,7 @@ class WaypointsMotion(TargetMotion):
                 break
             goal = points[self._next_waypoint]
             delta = goal - self.position
-            dist = _length(delta)
+            dist = vector_length(delta)
             if dist <= budget:
                 self.position = goal.copy()
                 budget -= dist
@@ -65,7 +64,7 @@ class WaypointsMotion(TargetMotion):
         if self._next_waypoint >= len(self._points):
             return np.zeros(2)
         delta = self._points[self._next_waypoint] - self.position
-        dist = _length(delta)
+        dist = vector_length(delta)
         return np.zeros(2) if dist == 0 else delta / dist * self.spec.speed
 
 
@@ -118,9 +117,3 @@ class NoisyConstantVelocityMotion(TargetMotion):
         )
         state = transition @ np.concatenate([self.position, self.velocity]) + noise
         self.position, self.velocity = state[:2], state[2:]
-
-
-def _length(delta: np.ndarray) -> float:
-    """``‖delta‖`` with the very operations of ``np.linalg.norm`` (``√(δ·δ)``), without its
-    argument handling: a waypoint target asks twice per step."""
-    return math.sqrt(delta.dot(delta))

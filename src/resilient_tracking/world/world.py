@@ -13,6 +13,7 @@ from typing import cast
 
 import numpy as np
 
+from resilient_tracking.models.geometry import row_norms
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
@@ -124,8 +125,7 @@ class World:
         targets = np.array([t.position for t in self.targets])
         # Noise is drawn for every pair every step so the stream stays aligned across policies.
         z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
-        offsets = targets[None, :, :] - positions[:, None, :]
-        distance = np.sqrt((offsets * offsets).sum(axis=-1))  # as np.linalg.norm(axis=-1) sums
+        distance = row_norms(targets[None, :, :] - positions[:, None, :])
         sensing_ok = self.capability_ok("sensing")
         measured = sensing_ok[:, None] & self.sensor.in_range(distance)
         if not measured.all():
