@@ -14,13 +14,13 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import SCENARIOS
+from resilient_tracking.policies import POLICIES
 from resilient_tracking.scenario import (
     MAX_COORDINATE,
     MAX_DT,
     MAX_VARIANCE,
     MIN_COVARIANCE_RATIO,
     MIN_VARIANCE,
-    POLICY_NAMES,
     ScenarioError,
     parse_scenario,
 )
@@ -106,7 +106,7 @@ def scenario_at_the_edges(draw: st.DrawFn) -> dict[str, Any]:
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much],
     max_examples=max(8, settings().max_examples // 6),
 )
-@given(scenario_at_the_edges(), st.sampled_from(POLICY_NAMES))
+@given(scenario_at_the_edges(), st.sampled_from(POLICIES.builtin_names()))
 @pytest.mark.filterwarnings("error::RuntimeWarning")  # an overflow or 0/0 is a numerical bug
 def test_every_policy_runs_scenarios_at_the_edges_of_the_bounds_with_finite_numbers(data, policy):
     result = run_episode(parse_scenario(data), policy=policy)
@@ -116,7 +116,7 @@ def test_every_policy_runs_scenarios_at_the_edges_of_the_bounds_with_finite_numb
         assert np.all(np.isfinite(numbers)), (name, policy)
 
 
-@pytest.mark.parametrize("policy", POLICY_NAMES)
+@pytest.mark.parametrize("policy", POLICIES.builtin_names())
 @pytest.mark.parametrize("sigma", SIGMAS[:2], ids=["smallest", "largest"])
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_a_zone_on_a_robot_with_the_extreme_covariances_runs_finite(policy, sigma):

@@ -30,7 +30,7 @@ def test_override_values_are_read_as_yaml():
 def test_overrides_reach_the_scenario_and_bad_ones_name_the_field():
     scenario = shipped("sensing-temp")
     changed = apply_overrides(scenario, [("policy.failure_aware.eps1", 0.05), ("steps", 20)])
-    assert changed.policy.failure_aware.eps1 == 0.05
+    assert changed.policy.params_for("failure_aware").eps1 == 0.05
     assert changed.steps == 20
     with pytest.raises(ScenarioError, match="policy.failure_aware.eps1"):
         apply_overrides(scenario, [("policy.failure_aware.eps1", 0.9)])

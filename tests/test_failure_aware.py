@@ -9,12 +9,13 @@ import pytest
 
 from helpers import shipped
 from resilient_tracking.belief.circle_fit import fit_circle
-from resilient_tracking.planning.adaptation import adaptive_weights, as_array
+from resilient_tracking.build import team_config
+from resilient_tracking.planning.adaptation import adaptive_weights
 from resilient_tracking.policies import FailureAwarePolicy
-from resilient_tracking.scenario import FailureAwareParams, parse_scenario
+from resilient_tracking.policies.failure_aware_params import FailureAwareParams
+from resilient_tracking.scenario import parse_scenario
 from resilient_tracking.sim.episode import initial_estimate, run_episode
 from resilient_tracking.team import Team
-from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world import World
 
 STILL = {"type": "constant_velocity", "velocity": [0.0, 0.0]}
@@ -51,8 +52,8 @@ def disk_comm_zone(mu, persistence: str, p_hit: float = 1.0) -> dict[str, Any]:
 def run_with_policy(s, seed: int = 1):
     """The episode loop by hand, keeping the policy to look at its weights."""
     world = World(s, seed)
-    config = TeamConfig.from_scenario(s)
-    policy = FailureAwarePolicy(config, s.policy.failure_aware)
+    config = team_config(s)
+    policy = FailureAwarePolicy(config, s.policy.params_for("failure_aware"))
     team = Team(policy, initial_estimate(s, world, seed))
     weights, modes, attacked, attacks = [], [], [], []
     for _ in range(s.steps):
@@ -86,19 +87,19 @@ def test_zone_is_known_to_every_league_member_in_the_step_it_is_revealed():
 
 def test_adaptive_weights_interpolate_between_risky_and_safe():
     p = FailureAwareParams()
-    risky, safe = as_array(p.risky), as_array(p.safe)
-    np.testing.assert_allclose(adaptive_weights(p.risky, p.safe, 0, 3), risky)
-    np.testing.assert_allclose(adaptive_weights(p.risky, p.safe, 3, 3), safe)
-    np.testing.assert_allclose(adaptive_weights(p.risky, p.safe, 1, 3), risky - (risky - safe) / 3)
+    risky, safe = p.risky.as_array(), p.safe.as_array()
+    np.testing.assert_allclose(adaptive_weights(risky, safe, 0, 3), risky)
+    np.testing.assert_allclose(adaptive_weights(risky, safe, 3, 3), safe)
+    np.testing.assert_allclose(adaptive_weights(risky, safe, 1, 3), risky - (risky - safe) / 3)
     # more attacked robots: closer to safe in every weight that differs
-    w1, w2 = adaptive_weights(p.risky, p.safe, 1, 3), adaptive_weights(p.risky, p.safe, 2, 3)
+    w1, w2 = adaptive_weights(risky, safe, 1, 3), adaptive_weights(risky, safe, 2, 3)
     differs = risky != safe
     assert np.all(np.abs(w2 - safe)[differs] < np.abs(w1 - safe)[differs])
 
 
 def test_weights_follow_attacks_and_cooldown_lasts_exactly_its_length():
     s = shipped("sensing-temp")
-    p = s.policy.failure_aware
+    p = s.policy.params_for("failure_aware")
     weights, modes, attacked, attacks = run_with_policy(s)
     attack_steps = [k for k, a in enumerate(attacks) if a]
     assert attack_steps, "the scenario must produce a temporary attack"
@@ -112,11 +113,11 @@ def test_weights_follow_attacks_and_cooldown_lasts_exactly_its_length():
         if cooling[k]:
             assert {row[i] for i in league_rows} == {"cooldown"}, k
             np.testing.assert_allclose(
-                weights[k, league_rows], np.tile(as_array(p.cooldown), (len(league_rows), 1))
+                weights[k, league_rows], np.tile(p.cooldown.as_array(), (len(league_rows), 1))
             )
         else:
             assert {row[i] for i in league_rows} == {"league"}, k
-            expected = adaptive_weights(p.risky, p.safe, int(attacked[k]), 3)
+            expected = adaptive_weights(p.risky.as_array(), p.safe.as_array(), int(attacked[k]), 3)
             np.testing.assert_allclose(
                 weights[k, league_rows], np.tile(expected, (len(league_rows), 1))
             )
@@ -127,19 +128,19 @@ def test_weights_follow_attacks_and_cooldown_lasts_exactly_its_length():
     # after the recovery and the cool-down the team is back to the risky weights
     calm = [k for k in range(last, len(modes)) if not attacked[k] and not cooling[k]]
     assert calm
-    np.testing.assert_allclose(weights[calm[0], 0], as_array(p.risky))
+    np.testing.assert_allclose(weights[calm[0], 0], p.risky.as_array())
 
 
 def test_weights_move_toward_safe_while_robots_stay_attacked():
     s = shipped("sensing-perm")
-    p = s.policy.failure_aware
+    p = s.policy.params_for("failure_aware")
     weights, modes, attacked, _ = run_with_policy(s)
     assert attacked.max() >= 1
     for k in np.flatnonzero(attacked):
-        expected = adaptive_weights(p.risky, p.safe, int(attacked[k]), 3)
+        expected = adaptive_weights(p.risky.as_array(), p.safe.as_array(), int(attacked[k]), 3)
         working = [i for i, m in enumerate(modes[k]) if m == "league"]
         np.testing.assert_allclose(weights[k, working], np.tile(expected, (len(working), 1)))
-    assert weights[np.flatnonzero(attacked)[-1], :, 2].max() > as_array(p.risky)[2]
+    assert weights[np.flatnonzero(attacked)[-1], :, 2].max() > p.risky.as_array()[2]
 
 
 # ---------------------------------------------------------------------------- comm, permanent
@@ -308,8 +309,8 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
         )
 
     s = scenario()
-    policy = FailureAwarePolicy(TeamConfig.from_scenario(s), s.policy.failure_aware)
-    fresh = FailureAwarePolicy(TeamConfig.from_scenario(s), s.policy.failure_aware)
+    policy = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"))
+    fresh = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"))
     knowledge = KnowledgeBase()
     knowledge.learn(zone("zone0", "sensing", 1.0))
     knowledge.learn(zone("zone1", "comm", 2.0))
@@ -338,8 +339,10 @@ def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
         )
 
     s = scenario()
-    params = s.policy.failure_aware.model_copy(update={"guard_temporary_jammers": guard})
-    policy = FailureAwarePolicy(TeamConfig.from_scenario(s), params)
+    params = s.policy.params_for("failure_aware").model_copy(
+        update={"guard_temporary_jammers": guard}
+    )
+    policy = FailureAwarePolicy(team_config(s), params)
     knowledge = KnowledgeBase()
     for key, persistence, x in [
         ("a", "temporary", 1.0),

@@ -73,7 +73,9 @@ def test_variants_change_the_scenario_they_say_they_change():
     s = scenario_for(scale, v)
     assert (len(s.robots), len(s.targets), s.policy.name) == (3, 4, v.policy)
     ours = next(v for v in catalog()["bench-risk"].variants if v.label == "ours-conservative")
-    assert scenario_for(catalog()["bench-risk"], ours).policy.failure_aware.eps1 == 0.01
+    assert (
+        scenario_for(catalog()["bench-risk"], ours).policy.params_for("failure_aware").eps1 == 0.01
+    )
 
 
 def test_unknown_experiment_is_a_clear_error(capsys):

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from resilient_tracking.planning.goals import assign, keep_out_discs, route_rows
 from resilient_tracking.planning.layout import RouteRow
 from resilient_tracking.planning.route import SIDES, RouteMap, segment_distances
-from resilient_tracking.scenario import RouteSpec
+from resilient_tracking.planning.spec import RouteSpec
 
 BOX = (np.array([-10.0, -10.0]), np.array([10.0, 10.0]))
 

@@ -306,6 +306,35 @@ def test_unknown_policy_name() -> None:
     assert "magic" in problem
 
 
+def test_every_policy_section_is_checked_by_that_policys_params() -> None:
+    data = valid_base()
+    data["policy"] = {"name": "vanilla", "failure_aware": {"eps1": 0.7}, "sog": {"rho2": 0.2}}
+    problem = only_problem(data)
+    assert problem.startswith("policy.failure_aware.eps1: "), problem
+    data["policy"]["failure_aware"] = {"eps1": 0.05}
+    policy = parse_scenario(data).policy
+    assert policy.params_for("failure_aware").eps1 == 0.05
+    assert policy.params_for("sog").rho2 == 0.2
+    assert policy.params_for("vanilla") == policy.params_for("vanilla").__class__()  # defaults
+
+
+def test_params_are_the_named_policys_section_and_given_once() -> None:
+    data = valid_base()
+    data["policy"] = {"name": "failure_aware", "params": {"eps1": 0.05}}
+    assert parse_scenario(data).policy.params_for("failure_aware").eps1 == 0.05
+    data["policy"]["params"] = {"eps1": 0.9}
+    assert only_problem(data).startswith("policy.params.eps1: ")
+    data["policy"] = {"name": "failure_aware", "params": {"eps1": 0.05}, "failure_aware": {}}
+    assert "given twice" in only_problem(data)
+
+
+def test_a_section_must_name_a_policy() -> None:
+    data = valid_base()
+    data["policy"] = {"name": "vanilla", "magic": {"x": 1}}
+    problem = only_problem(data)
+    assert problem.startswith("policy.magic: not a policy"), problem
+
+
 def test_start_with_three_numbers() -> None:
     data = valid_base()
     data["robots"][0]["start"] = [0.0, 0.0, 1.0]

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from resilient_tracking.scenario import FailureAwareParams, VanillaParams
+from resilient_tracking.policies.failure_aware_params import FailureAwareParams
+from resilient_tracking.policies.vanilla import VanillaParams
 from resilient_tracking.scenario_reference import render, sections
 
 REFERENCE = Path(__file__).resolve().parents[1] / "docs" / "scenario-reference.md"

@@ -14,6 +14,7 @@ from helpers import SCENARIOS, shipped
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.knowledge import KnowledgeBase
+from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.cli import main
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.sensor import RangeBearingSensor
@@ -29,13 +30,12 @@ from resilient_tracking.planning.sog_problem import (
     likelihood_function,
     zone_rows,
 )
-from resilient_tracking.policies import SogPolicy, make_policy
-from resilient_tracking.policies.sog import abundance_weights
-from resilient_tracking.scenario import POLICY_NAMES, SogParams, parse_scenario
+from resilient_tracking.policies import POLICIES, SogPolicy
+from resilient_tracking.policies.sog import SogParams, abundance_weights
+from resilient_tracking.scenario import parse_scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.records import TABLES
 from resilient_tracking.team import Team
-from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world.zones import GaussianHazardModel
 
 MU = np.array([0.1, 0.0])
@@ -79,7 +79,7 @@ def clue() -> ZoneClue:
 
 def team_knowing_the_zone(scenario, positions, sensing_ok) -> Team:
     """A SOG team that learned the zone from an attack clue at step 0."""
-    config = TeamConfig.from_scenario(scenario)
+    config = team_config(scenario)
     estimate = TargetEstimate.initial(np.array([[0.1, 0.0, 0.0, 0.0]]), 0.3, 0.1)
     team = Team(make_policy("sog", scenario, config), estimate)
     team.step(observe(positions, sensing_ok, attacks=[Attack(2, clue())]))
@@ -148,7 +148,7 @@ def test_sog_information_is_the_ekf_information_when_phi_is_zero_and_scales_with
 
 
 def test_sog_is_a_policy_name_with_documented_defaults():
-    assert "sog" in POLICY_NAMES
+    assert "sog" in POLICIES.builtin_names()
     params = SogParams()
     assert params.rho2 == 0.3 and params.rho1 > 0
     assert SogPolicy.learns_zones
@@ -169,7 +169,7 @@ def test_fewer_working_sensors_make_the_plan_more_risk_averse():
     """Robot 0 sits at the ρ2 boundary with its target inside the zone: a full team lets it
     step in (aggressive); with two sensors gone it does not go deeper (risk-averse)."""
     s = sog_scenario(rho2=0.3)
-    scale = s.policy.sog.hazard_rate * s.policy.sog.risk_window
+    scale = s.policy.params_for("sog").hazard_rate * s.policy.params_for("sog").risk_window
     zones = zone_rows([MU], [SIGMA])
     # where φ = ρ2 on the ray from the zone's mean toward the west
     d = np.linspace(0.5, 2.5, 2001)
@@ -210,7 +210,7 @@ def test_risky_team_is_hit_more_often_than_a_conservative_one_in_sensing_perm():
     for rho2 in (0.6, 0.2):
         base = shipped("sensing-perm")
         policy = base.policy.model_dump()
-        policy["sog"]["rho2"] = rho2
+        policy.setdefault("sog", {})["rho2"] = rho2
         s = base.with_overrides(policy=policy)
         counts = []
         for seed in (1, 2, 3):

@@ -15,12 +15,12 @@ import pandas as pd
 import pytest
 
 from helpers import shipped
+from resilient_tracking.build import team_config
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector, InjectedSolverFault
 from resilient_tracking.planning.layout import ProblemInputs, comm_table, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.planning.safe_action import constraint_margins, safe_action
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world import World
 
 # ---------------------------------------------------------------------------- the injector
@@ -215,7 +215,7 @@ def test_without_faults_the_same_episode_has_no_fallback(spy):
 def test_commands_respect_velocity_bounds_under_faults(spy, name, policy, p, seed):
     scenario = shipped(name).with_overrides(steps=150)
     run_episode(scenario, policy=policy, seed=seed, fault_hook=FaultInjector(p, seed=seed))
-    config = TeamConfig.from_scenario(scenario)
+    config = team_config(scenario)
     everyone = list(range(config.n_robots))
     assert len(spy.commands) == scenario.steps
     for u, x in zip(spy.commands, spy.before, strict=True):

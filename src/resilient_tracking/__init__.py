@@ -49,7 +49,7 @@ _PUBLIC = {
     "POLICIES": "resilient_tracking.policies.base",
     "register_policy": "resilient_tracking.policies.base",
     "PlanningPolicy": "resilient_tracking.policies.planning_helpers",
-    "make_policy": "resilient_tracking.policies",
+    "make_policy": "resilient_tracking.build",
     "check_policy": "resilient_tracking.policy_check",
     "PolicyReport": "resilient_tracking.policy_check",
     # hazard models and target motions
@@ -116,9 +116,9 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:
     from resilient_tracking.belief.estimate import TargetEstimate
     from resilient_tracking.belief.team_belief import TeamBelief
+    from resilient_tracking.build import make_policy
     from resilient_tracking.events import Event
     from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
-    from resilient_tracking.policies import make_policy
     from resilient_tracking.policies.base import (
         POLICIES,
         Decision,

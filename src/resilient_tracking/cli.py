@@ -13,7 +13,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from resilient_tracking import __version__, interrupts
-from resilient_tracking.scenario import POLICY_NAMES, Scenario, ScenarioError
+from resilient_tracking.scenario import Scenario, ScenarioError
 from resilient_tracking.sim.folders import folder_name
 
 #: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
@@ -544,7 +544,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--policies",
         default="failure_aware,vanilla",
-        help=f"comma-separated: {', '.join(POLICY_NAMES)}, a registered name or "
+        help="comma-separated: failure_aware, vanilla, sog, a registered name or "
         "package.module:Class (default: failure_aware,vanilla)",
     )
     p.add_argument("--seeds", type=int, default=5, help="seeds 1..N per policy (default: 5)")

@@ -34,8 +34,9 @@ from typing import Any
 import numpy as np
 
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
-from resilient_tracking.policies import Policy, make_policy
+from resilient_tracking.policies import Policy
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import CommZone, Scenario
@@ -153,7 +154,7 @@ def _factory(policy: PolicyLike, scenario: Scenario) -> tuple[Callable[[], Polic
     def build() -> Policy:
         from resilient_tracking.planning.planner import LeaguePlanner
 
-        config = TeamConfig.from_scenario(scenario)
+        config = team_config(scenario)
         params = scenario.policy.params_for(cls.name, cls.Params)
         return cls.build(config, params, LeaguePlanner.from_spec(scenario.planner))
 

@@ -23,7 +23,13 @@ import yaml
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-from resilient_tracking.scenario import MAX_COORDINATE, HazardSpec, MotionSpec, Scenario
+from resilient_tracking.scenario import (
+    MAX_COORDINATE,
+    HazardSpec,
+    MotionSpec,
+    PolicySpec,
+    Scenario,
+)
 
 
 @dataclass(frozen=True)
@@ -178,6 +184,11 @@ def sections(model: type[BaseModel] = Scenario, path: str = "") -> Iterator[Sect
                     yield (Section(s.path, s.model, f"{tag}: {literal}") if s.model is sub else s)
             else:
                 yield from sections(sub, child)
+    if model is PolicySpec:  # each built-in policy's own Params, under its name
+        from resilient_tracking.policies import POLICIES
+
+        for name in POLICIES.builtin_names():
+            yield from sections(POLICIES.get(name).Params, f"{path}.{name}")
 
 
 def _table(section: Section) -> str:

@@ -24,11 +24,11 @@ import numpy as np
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.team_config import TeamConfig
 
 
 @dataclass
@@ -88,11 +88,9 @@ class Team:
         """A team for a scenario's robots and sensors, starting from the targets' means, an
         ``(N, 4)`` array ``[px, py, vx, vy]`` or ``(N, 2)`` positions (lists accepted), with the
         scenario's declared initial uncertainty."""
-        from resilient_tracking.policies import make_policy
-
         means = _initial_means(initial_means, len(scenario.targets))
         spec = scenario.estimator
-        config = TeamConfig.from_scenario(scenario)
+        config = team_config(scenario)
         return cls(
             make_policy(policy or scenario.policy.name, scenario, config),
             TargetEstimate.initial(means, spec.initial_position_std, spec.initial_velocity_std),

@@ -7,8 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import MeasurementModel, RangeBearingSensor
-from resilient_tracking.scenario import Scenario
+from resilient_tracking.models.sensor import MeasurementModel
 
 
 @dataclass(frozen=True)
@@ -40,23 +39,3 @@ class TeamConfig:
         lower = np.minimum(np.maximum(-umax, (self.lower - x) / self.dt), 0.0)
         upper = np.maximum(np.minimum(umax, (self.upper - x) / self.dt), 0.0)
         return lower, upper
-
-    @classmethod
-    def from_scenario(cls, scenario: Scenario) -> TeamConfig:
-        """The team a scenario declares: its robots, workspace, sensor and target model."""
-        s = scenario.sensor
-        return cls(
-            dt=scenario.dt,
-            u_max=np.array([r.u_max for r in scenario.robots], dtype=float),
-            lower=scenario.workspace.lower,
-            upper=scenario.workspace.upper,
-            sensor=RangeBearingSensor(
-                range_peak=s.range.peak,
-                range_shape=s.range.shape,
-                bearing_peak=s.bearing.peak,
-                bearing_shape=s.bearing.shape,
-                max_range=s.max_range,
-            ),
-            target_model=NearlyConstantVelocity(scenario.dt, scenario.estimator.accel_std),
-            comm_range=scenario.comm_range,
-        )

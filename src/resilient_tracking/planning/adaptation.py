@@ -5,17 +5,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import erfinv
 
-from resilient_tracking.scenario import WeightSet
 
-
-def as_array(w: WeightSet) -> np.ndarray:
-    """``[w1, w2, w3, w4, w5]``: track, effort, sensing slack, comm slack, clearance."""
-    return np.array([w.track, w.effort, w.sensing_slack, w.comm_slack, w.clearance])
-
-
-def adaptive_weights(risky: WeightSet, safe: WeightSet, attacked: int, total: int) -> np.ndarray:
-    """``w_s = w_s,risky − (m/M)(w_s,risky − w_s,safe)`` for ``s = 1..5`` (eq. 10)."""
-    r, s = as_array(risky), as_array(safe)
+def adaptive_weights(risky: np.ndarray, safe: np.ndarray, attacked: int, total: int) -> np.ndarray:
+    """``w_s = w_s,risky − (m/M)(w_s,risky − w_s,safe)`` for ``s = 1..5`` (eq. 10), from the two
+    extremes as arrays ``[w1, w2, w3, w4, w5]`` (track, effort, sensing slack, comm slack,
+    clearance)."""
+    r, s = risky, safe
     frac = min(max(attacked / total, 0.0), 1.0) if total else 0.0
     return r - frac * (r - s)
 

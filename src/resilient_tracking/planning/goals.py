@@ -24,7 +24,7 @@ from scipy.optimize import linear_sum_assignment
 
 from resilient_tracking.planning.layout import CommRow, RouteRow, SensingRow
 from resilient_tracking.planning.route import RouteMap
-from resilient_tracking.scenario import RouteSpec
+from resilient_tracking.planning.spec import RouteSpec
 
 #: Resolution (m) of the teammate distance in a comm zone's keep-out disc.
 PAIR_STEP = 0.25

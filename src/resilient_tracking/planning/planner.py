@@ -37,7 +37,7 @@ from resilient_tracking.planning.layout import ProblemInputs, Structure
 from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.nlp_cache import NLP_BUDGET
 from resilient_tracking.planning.solver_options import ProblemOptions
-from resilient_tracking.scenario import PlannerSpec, RouteSpec
+from resilient_tracking.planning.spec import PlannerSpec, RouteSpec
 
 log = logging.getLogger(__name__)
 

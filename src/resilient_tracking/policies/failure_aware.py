@@ -26,13 +26,13 @@ from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.silent_robots import SilentRobotSettings, SilentRobotWatch
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.planning.adaptation import adaptive_weights, as_array, chance_margin
+from resilient_tracking.planning.adaptation import adaptive_weights, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
 from resilient_tracking.planning.layout import comm_row, comm_table, sensing_row, sensing_table
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, register_policy
+from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
-from resilient_tracking.scenario import FailureAwareParams
 from resilient_tracking.team_config import TeamConfig
 
 #: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``)
@@ -122,9 +122,9 @@ class FailureAwarePolicy(PlanningPolicy):
         if key not in self._weights:
             p = self.params
             if alone or cooling:
-                weights = as_array(p.cooldown if cooling else p.safe)
+                weights = (p.cooldown if cooling else p.safe).as_array()
             else:
-                weights = adaptive_weights(p.risky, p.safe, attacked, m)
+                weights = adaptive_weights(p.risky.as_array(), p.safe.as_array(), attacked, m)
             self._weights[key] = weights
         return self._weights[key].copy()
 

@@ -5,7 +5,8 @@ A scenario is a YAML mapping validated by pydantic models, one module per part o
 - :mod:`~.base`: the strict base model, bounded number types, size limits;
 - :mod:`~.world_specs`: workspace, robots, targets and their motions, sensor, estimator;
 - :mod:`~.zones`: danger zones and their hazard models;
-- :mod:`~.policies`: the ``policy`` section; :mod:`~.planner`: the ``planner`` section;
+- :mod:`~.policies`: the ``policy`` section; the ``planner`` section is the planner's own
+  :mod:`~resilient_tracking.planning.spec`;
 - :mod:`~.model`: the whole :class:`Scenario` with its cross-field checks;
 - :mod:`~.loading`: ``load_scenario`` returns a :class:`Scenario` or raises
   :class:`ScenarioError` listing every problem as ``field.path: message (got value)``.
@@ -15,6 +16,10 @@ The format is documented in ``docs/scenario-format.md``; everything is importabl
 
 from __future__ import annotations
 
+from resilient_tracking.planning.spec import (
+    PlannerSpec,
+    RouteSpec,
+)
 from resilient_tracking.scenario.base import (
     MAX_COORDINATE,
     MAX_DT,
@@ -44,20 +49,7 @@ from resilient_tracking.scenario.loading import (
 from resilient_tracking.scenario.model import (
     Scenario,
 )
-from resilient_tracking.scenario.planner import (
-    PlannerSpec,
-    RouteSpec,
-)
-from resilient_tracking.scenario.policies import (
-    POLICY_NAMES,
-    CircleFitParams,
-    FailureAwareParams,
-    PolicySpec,
-    SogParams,
-    SogSlackWeights,
-    VanillaParams,
-    WeightSet,
-)
+from resilient_tracking.scenario.policies import PolicySpec
 from resilient_tracking.scenario.world_specs import (
     Circle,
     ConstantVelocity,
@@ -123,14 +115,7 @@ __all__ = [
     "SensingZone",
     "CommZone",
     "Zone",
-    "VanillaParams",
-    "WeightSet",
-    "CircleFitParams",
-    "FailureAwareParams",
-    "SogSlackWeights",
-    "SogParams",
     "PolicySpec",
-    "POLICY_NAMES",
     "RouteSpec",
     "PlannerSpec",
     "Scenario",

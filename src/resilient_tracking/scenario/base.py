@@ -1,21 +1,47 @@
-"""Shared pieces of the scenario schema: the strict base model, bounded number types and
-the size limits a scenario is held to."""
+"""Shared pieces of the scenario schema: the size limits a scenario is held to, the plug-in
+validator, and (from :mod:`resilient_tracking.spec`) the strict base model and number types."""
 
 from __future__ import annotations
 
 import importlib
-from typing import Annotated, Any
+from typing import Any
 
-from pydantic import (
-    BaseModel,
-    BeforeValidator,
-    ConfigDict,
-    Field,
+from pydantic import BaseModel, BeforeValidator
+
+from resilient_tracking.spec import (
+    MAX_COORDINATE,
+    Coordinate,
+    Matrix2,
+    Number,
+    PositiveFloat,
+    Row2,
+    Strict,
+    Vec2,
 )
-from pydantic import Strict as StrictMode
 
-#: Largest magnitude (m, m/s) of a coordinate; beyond it, products of positions overflow.
-MAX_COORDINATE = 1e6
+__all__ = [
+    "MAX_COORDINATE",
+    "MAX_DT",
+    "MAX_RECORDED_ROWS",
+    "MAX_ROBOTS",
+    "MAX_ROBOTS_X_TARGETS",
+    "MAX_STEPS",
+    "MAX_TARGETS",
+    "MAX_VARIANCE",
+    "MAX_ZONES",
+    "MIN_COVARIANCE_RATIO",
+    "MIN_DT",
+    "MIN_VARIANCE",
+    "Coordinate",
+    "Matrix2",
+    "Number",
+    "PositiveFloat",
+    "Row2",
+    "Strict",
+    "Vec2",
+    "plugin_spec",
+]
+
 #: Largest magnitude (m²) of a covariance entry, and the smallest eigenvalue ratio λmin/λmax: a
 #: flatter Σ is numerically singular for the chance constraints and the Mahalanobis tests.
 MAX_VARIANCE = 1e12
@@ -37,26 +63,6 @@ MAX_DT = 10.0
 MIN_DT = 1e-3
 #: Recorded rows (``steps × (robots + targets)``) an episode may hold in memory.
 MAX_RECORDED_ROWS = 5_000_000
-
-#: A number inside a list: strict (an int or a float, never a bool or a string) even where the
-#: list itself is lax (``StrictMode(False)`` lets a YAML list stand for a tuple).
-Number = Annotated[float, StrictMode()]
-#: A coordinate or velocity component: a strict number of bounded size.
-Coordinate = Annotated[float, StrictMode(), Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
-Vec2 = Annotated[tuple[Coordinate, Coordinate], StrictMode(False)]
-Row2 = Annotated[tuple[Number, Number], StrictMode(False)]
-Matrix2 = Annotated[tuple[Row2, Row2], StrictMode(False)]
-PositiveFloat = Annotated[float, Field(gt=0)]
-
-
-class Strict(BaseModel):
-    """Base: unknown keys are errors, NaN and infinity are rejected, and values are strict.
-
-    Strict mode means a number field takes an int or a float but never a bool (YAML ``yes``) or a
-    string (``"0.1"``), a bool field takes only ``true``/``false``, an int field only an integer.
-    """
-
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True, strict=True)
 
 
 def plugin_spec(registry: str, tag: str) -> Any:

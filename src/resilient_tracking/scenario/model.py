@@ -7,8 +7,10 @@ from typing import Any
 
 from pydantic import (
     Field,
+    ValidationError,
 )
 
+from resilient_tracking.planning.spec import PlannerSpec
 from resilient_tracking.scenario.base import (
     MAX_DT,
     MAX_RECORDED_ROWS,
@@ -21,7 +23,7 @@ from resilient_tracking.scenario.base import (
     PositiveFloat,
     Strict,
 )
-from resilient_tracking.scenario.planner import PlannerSpec
+from resilient_tracking.scenario.errors import ScenarioError, field_problems
 from resilient_tracking.scenario.policies import PolicySpec
 from resilient_tracking.scenario.world_specs import (
     Circle,
@@ -114,10 +116,24 @@ class Scenario(Strict):
                 )
         return out
 
+    @classmethod
+    def parse(cls, data: Any, source: str = "<scenario>") -> Scenario:
+        """Validate a parsed mapping; raise :class:`ScenarioError` naming every bad field."""
+        if not isinstance(data, dict):
+            raise ScenarioError(source, [f"<root>: must be a mapping (got {type(data).__name__})"])
+        try:
+            scenario = cls.model_validate(data)
+        except ValidationError as err:
+            raise ScenarioError(source, field_problems(err, data)) from None
+        except RecursionError:
+            raise ScenarioError(source, ["<root>: nested too deeply to be a scenario"]) from None
+        problems = scenario.problems()
+        if problems:
+            raise ScenarioError(source, problems)
+        return scenario
+
     def with_overrides(self, **changes: Any) -> Scenario:
         """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…)."""
         data = self.model_dump()
         data.update(changes)
-        from resilient_tracking.scenario.loading import parse_scenario
-
-        return parse_scenario(data, f"{self.name} (overridden)")
+        return Scenario.parse(data, f"{self.name} (overridden)")

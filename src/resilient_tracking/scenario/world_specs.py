@@ -11,6 +11,7 @@ from pydantic import (
     SerializeAsAny,
 )
 
+from resilient_tracking.models.sensor import RangeBearingSensor
 from resilient_tracking.scenario.base import PositiveFloat, Strict, Vec2, plugin_spec
 
 # ---------------------------------------------------------------------------- geometry
@@ -182,6 +183,16 @@ class SensorSpec(Strict):
         description="Targets farther than this are not measured; null: no limit.",
         json_schema_extra={"unit": "m"},
     )
+
+    def model(self) -> RangeBearingSensor:
+        """The measurement model this section declares."""
+        return RangeBearingSensor(
+            range_peak=self.range.peak,
+            range_shape=self.range.shape,
+            bearing_peak=self.bearing.peak,
+            bearing_shape=self.bearing.shape,
+            max_range=self.max_range,
+        )
 
 
 class EstimatorSpec(Strict):

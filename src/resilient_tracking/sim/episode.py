@@ -18,17 +18,16 @@ import numpy as np
 
 from resilient_tracking import __version__
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook, LeaguePlanner
-from resilient_tracking.policies import make_policy
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.sim.kernels import numeric_kernels
 from resilient_tracking.sim.metrics import effort, mse
 from resilient_tracking.sim.records import ColumnTable, EpisodeResult, frame
 from resilient_tracking.team import Team, TeamStep
-from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world import World
 from resilient_tracking.world.zones import TrueZone
 
@@ -61,7 +60,7 @@ def build_team(
     fault_hook: FaultHook | None = None,
 ) -> Team:
     """The team of an episode: policy, planner and the seeded prior around ``initial_targets``."""
-    config = TeamConfig.from_scenario(scenario)
+    config = team_config(scenario)
     planner = LeaguePlanner.from_spec(scenario.planner, fault_hook=fault_hook)
     policy_obj = make_policy(policy_name, scenario, config, planner)
     return Team(policy_obj, prior_estimate(scenario, initial_targets, seed))

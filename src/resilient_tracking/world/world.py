@@ -17,7 +17,6 @@ from resilient_tracking.models.geometry import row_norms
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world.links import jammed_by, link_matrix
 from resilient_tracking.world.targets import TargetTruth
 from resilient_tracking.world.zones import TrueZone
@@ -67,7 +66,7 @@ class World:
         self.scenario = scenario
         self.dt = scenario.dt
         self.step_index = 0
-        self.sensor = TeamConfig.from_scenario(scenario).sensor
+        self.sensor = scenario.sensor.model()
         self._rng_attacks = stream(seed, "attacks")
         self._rng_measurements = stream(seed, "measurements")
         self._rng_targets = stream(seed, "target_motion")

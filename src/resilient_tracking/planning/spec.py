@@ -1,4 +1,5 @@
-"""The planner section of a scenario: which program and solver plan the league problems."""
+"""The planner's parameters (a scenario's ``planner`` section): which program and solver plan
+the league problems."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pydantic import (
     Field,
 )
 
-from resilient_tracking.scenario.base import Strict
+from resilient_tracking.spec import Strict
 
 
 class RouteSpec(Strict):

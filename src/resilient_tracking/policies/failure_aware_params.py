@@ -1,0 +1,164 @@
+"""Parameters of the failure-aware policy (Algorithm 1): the adaptive weights' two extremes
+and the cool-down set (eq. 10), the risk levels of the chance constraints (eqs. 7c, 7d), circular
+evasion and the gates of the circle fit (Alg. 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from resilient_tracking.spec import PositiveFloat, Strict
+
+
+class WeightSet(Strict):
+    """One extreme of the adaptive weights (paper eq. 10): ``w1..w4`` and the clearance ``w5``."""
+
+    track: float = Field(ge=0, description="w1: weight on the tracking term Σ_j tr P⁺_j.")
+    effort: PositiveFloat = Field(..., description="w2: weight on the control effort Σ_i ‖u_i‖².")
+    sensing_slack: float = Field(
+        ge=0, description="w3: penalty on the slacks of the sensing-zone chance constraints."
+    )
+    comm_slack: float = Field(
+        ge=0, description="w4: penalty on the slacks of the comm-zone chance constraints."
+    )
+    clearance: float = Field(
+        0.0,
+        ge=0,
+        description="w5: clearance added to a sensing zone radius, r_safe = r + w5.",
+        json_schema_extra={"unit": "m"},
+    )
+
+    def as_array(self) -> np.ndarray:
+        """``[w1, w2, w3, w4, w5]``: track, effort, sensing slack, comm slack, clearance."""
+        return np.array(
+            [self.track, self.effort, self.sensing_slack, self.comm_slack, self.clearance]
+        )
+
+
+class CircleFitParams(Strict):
+    """Gates of EstimateCircleParameters (Alg. 3): when an observed path counts as a circle."""
+
+    window: int = Field(
+        40,
+        ge=5,
+        le=10_000,
+        description="Last observed positions of a silent robot used in the fit.",
+        json_schema_extra={"unit": "steps"},
+    )
+    min_samples: int = Field(
+        20,
+        ge=5,
+        description="Fewest positions before a fit is accepted.",
+        json_schema_extra={"unit": "steps"},
+    )
+    min_arc: float = Field(
+        2.5,
+        gt=0,
+        le=6.2832,
+        description="Smallest arc of the circle the positions must cover.",
+        json_schema_extra={"unit": "rad"},
+    )
+    max_residual: float = Field(
+        0.08,
+        gt=0,
+        description="Largest RMS radial residual of an accepted fit.",
+        json_schema_extra={"unit": "m"},
+    )
+    min_radius: PositiveFloat = Field(
+        0.2, description="Smallest plausible circle radius.", json_schema_extra={"unit": "m"}
+    )
+    max_radius: PositiveFloat = Field(
+        5.0, description="Largest plausible circle radius.", json_schema_extra={"unit": "m"}
+    )
+    silent_steps: int = Field(
+        8,
+        ge=1,
+        description="Steps without any working link before a teammate is watched.",
+        json_schema_extra={"unit": "steps"},
+    )
+
+
+class FailureAwareParams(Strict):
+    """Algorithm 1 with adaptive weights, cool-down, circular evasion and circle inference."""
+
+    risky: WeightSet = Field(
+        WeightSet(track=50, effort=0.05, sensing_slack=200, comm_slack=100),
+        description="Weights with no robot under attack (eq. 10, w_risky).",
+    )
+    safe: WeightSet = Field(
+        WeightSet(track=45, effort=0.05, sensing_slack=2000, comm_slack=500, clearance=0.4),
+        description=(
+            "Weights with every robot under attack (eq. 10, w_safe); isolated robots use them."
+        ),
+    )
+    cooldown: WeightSet = Field(
+        WeightSet(track=40, effort=0.05, sensing_slack=4000, comm_slack=1000, clearance=0.6),
+        description="Weights of the whole team during a cool-down after a temporary failure.",
+    )
+    cooldown_steps: int = Field(
+        10,
+        ge=0,
+        description="Length of the cool-down after a temporary failure.",
+        json_schema_extra={"unit": "steps"},
+    )
+    eps1: float = Field(
+        0.02,
+        gt=0,
+        lt=0.5,
+        description=(
+            "Risk level ε1 of the sensing-zone chance constraints (smaller: more cautious)."
+        ),
+    )
+    eps2: float = Field(
+        0.15,
+        gt=0,
+        lt=0.5,
+        description="Risk level ε2 of the comm-zone chance constraints and of the evasion circle.",
+    )
+    comm_clearance: float = Field(
+        0.5,
+        ge=0,
+        description="Clearance added around a comm zone an isolated robot escapes.",
+        json_schema_extra={"unit": "m"},
+    )
+    circle_speed: float = Field(
+        0.9,
+        gt=0,
+        le=1,
+        description="Speed of circular evasion as a fraction of u_max.",
+        json_schema_extra={"unit": "fraction"},
+    )
+    circle_margin: float = Field(
+        0.3,
+        ge=0,
+        description="Margin added to the evasion circle radius.",
+        json_schema_extra={"unit": "m"},
+    )
+    circle_fit: CircleFitParams = Field(
+        CircleFitParams(),
+        description="When a silent robot's observed path counts as a circle (Alg. 3).",
+    )
+    guard_temporary_jammers: bool = Field(
+        True,
+        description=(
+            "Keep league links clear (eq. 7d) of comm zones the league knows to be temporary, as"
+            " the paper does; false: such a zone costs only a short outage, so leagues plan as"
+            " if it were not there (docs/generalization.md measures both)."
+        ),
+    )
+    inferred_delta2: PositiveFloat = Field(
+        0.3,
+        description=(
+            "Jammer strength assumed for a comm zone inferred from a circle (its δ2 is not seen)."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
+    silence_std: float = Field(
+        0.3,
+        ge=0,
+        description=(
+            "Spread of the provisional comm zone put where a teammate fell silent, until a circle"
+            " fit replaces it; 0 turns it off."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
