@@ -18,6 +18,7 @@ from resilient_tracking.belief.health import is_spd, repair_covariances
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.observation import TeamObservation
 from resilient_tracking.sim.episode import run_episode
 
 # ---------------------------------------------------------------------------- repair
@@ -112,19 +113,50 @@ def _full_repair(cov):
         health._surely_healthy = original
 
 
-def test_a_prediction_asked_for_again_is_the_same_numbers():
+def test_the_belief_predicts_each_league_once_per_tick():
+    """The plan's prediction is the next update's prior: one prediction per league and tick."""
     ekf = ExtendedKalmanFilter(NearlyConstantVelocity(0.1, 0.2), RangeBearingSensor())
+    calls, priors = [], []
+
+    class Counting:
+        def predict(self, est):
+            calls.append(est)
+            return ekf.predict(est)
+
+        def update(self, est, robots, z):
+            priors.append(est)
+            return ekf.update(est, robots, z)
+
     est = TargetEstimate.initial(np.array([[0.0, 1.0, 0.1, 0.0], [1.0, -1.0, 0.0, 0.2]]), 0.3, 0.1)
-    first = ekf.predict(est)
-    assert ekf.predict(est) is first
-    other = ExtendedKalmanFilter(ekf.model, ekf.sensor).predict(est.copy())  # computed anew
-    np.testing.assert_array_equal(first.mean, other.mean)
-    np.testing.assert_array_equal(first.cov, other.cov)
-    moved = TargetEstimate(est.mean + 1.0, est.cov)  # a new estimate: a new prediction
-    assert not np.array_equal(ekf.predict(moved).mean, first.mean)
+    belief = TeamBelief(2, est, Counting())
+    positions = np.array([[0.0, 0.0], [1.0, 0.5]])
+    z = np.full((2, 2, 2), np.nan)
 
+    def tick(step: int) -> TeamObservation:
+        return TeamObservation(
+            step=step,
+            time=0.1 * step,
+            positions=positions,
+            measurements=z,
+            sensing_ok=np.ones(2, bool),
+            comm_ok=np.ones(2, bool),
+            sensing_persistence=("", ""),
+            comm_persistence=("", ""),
+            links=np.ones((2, 2), bool),
+        )
 
-# ---------------------------------------------------------------------------- in a team
+    for step in range(3):
+        belief.update(tick(step))
+        planned = belief.predicted(0)
+        assert belief.predicted(0) is planned  # asked again: the same prediction
+        assert len(calls) == step + 1
+    # what the next tick starts from is exactly the prediction the plan used
+    belief.update(tick(3))
+    assert priors[-1] is planned
+    assert len(calls) == 3
+    again = ekf.predict(calls[-1].copy())  # the same numbers as a prediction made anew
+    np.testing.assert_array_equal(planned.mean, again.mean)
+    np.testing.assert_array_equal(planned.cov, again.cov)
 
 
 def test_a_drifted_estimate_is_repaired_with_an_event(monkeypatch):

@@ -86,7 +86,7 @@ def test_a_well_behaved_policy_passes(scenario):
     ("cls", "words"),
     [
         (NonFinite, "controls of robots [0] are not finite"),
-        (TooFast, "outside their velocity bounds"),
+        (TooFast, "outside its velocity bounds"),
         (WrongShape, "controls have shape"),
         (Raises, "act raised RuntimeError: nobody sees anything"),
         (Random, "nondeterministic"),

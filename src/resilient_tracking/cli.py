@@ -166,6 +166,15 @@ def _run_into(
         f"mean MSE {team['mse'].mean():.3g}, {attacks} attacks, "
         f"{len(figures)} figures, {result.manifest['wall_time_s']:.2f} s"
     )
+    invalid = events[events["event"] == "invalid_decision"] if len(events) else events
+    if len(invalid):
+        first = invalid.iloc[0]
+        print(
+            f"warning: {len(invalid)} invalid decision(s) of the policy: {first['detail']} "
+            f"(first at step {first['step']}, robot {first['robot']}); those robots held "
+            "position (events.parquet, event invalid_decision)",
+            file=sys.stderr,
+        )
     return 0
 
 

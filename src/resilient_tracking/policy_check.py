@@ -37,7 +37,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
 from resilient_tracking.policies import Policy
-from resilient_tracking.policies.base import Decision
+from resilient_tracking.policies.checks import decision_problems
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import CommZone, Scenario
 from resilient_tracking.team import Team
@@ -45,8 +45,6 @@ from resilient_tracking.team_config import TeamConfig
 
 log = logging.getLogger(__name__)
 
-#: Slack (m/s) allowed on the velocity bounds, for rounding in a solver's clipping.
-BOUND_TOLERANCE = 1e-9
 #: Modules and class names of the simulator's truth: a policy must not use them.
 TRUTH_MODULES = ("resilient_tracking.world", "resilient_tracking.sim")
 TRUTH_NAMES = frozenset({"World", "TrueZone", "TargetTruth", "Failure"})
@@ -264,43 +262,15 @@ def _check_decision(
     decision: Any, config: TeamConfig, obs: TeamObservation, tick: str, report: PolicyReport | None
 ) -> np.ndarray | None:
     """The decision's controls if they have the right shape; violations into ``report``."""
-    problems: list[str] = []
-    m = obs.n_robots
-    controls: np.ndarray | None = None
-    if not isinstance(decision, Decision):
-        problems.append(f"act returned {type(decision).__name__}, not a Decision")
-    else:
-        try:
-            controls = np.asarray(decision.controls, dtype=float)
-        except (TypeError, ValueError) as err:
-            problems.append(f"controls are not an array of numbers ({err})")
-        if controls is not None and controls.shape != (m, 2):
-            problems.append(f"controls have shape {controls.shape}, expected ({m}, 2)")
-            controls = None
-        if controls is not None:
-            bad = [i for i in range(m) if not np.all(np.isfinite(controls[i]))]
-            if bad:
-                problems.append(f"controls of robots {bad} are not finite")
-            lower, upper = config.velocity_bounds(list(range(m)), obs.positions)
-            with np.errstate(invalid="ignore"):
-                outside = (controls < lower - BOUND_TOLERANCE) | (
-                    controls > upper + BOUND_TOLERANCE
-                )
-            out = [i for i in range(m) if outside[i].any()]
-            if out:
-                i = out[0]
-                problems.append(
-                    f"controls of robots {out} are outside their velocity bounds "
-                    f"(robot {i}: {controls[i].tolist()} not in "
-                    f"[{lower[i].tolist()}, {upper[i].tolist()}])"
-                )
-        modes = decision.modes
-        if not (isinstance(modes, list | tuple) and len(modes) == m):
-            problems.append(f"modes must be one string per robot ({m}), got {modes!r:.80}")
-        elif not all(isinstance(x, str) for x in modes):
-            problems.append("modes must be strings")
+    controls, problems = decision_problems(decision, config, obs.positions)
+    messages = [p.message for p in problems if p.robot is None]
+    for kind, words in (("not_finite", "are not finite"), ("out_of_bounds", "are outside")):
+        found = [p for p in problems if p.kind == kind]
+        if found:
+            robots = [p.robot for p in found]
+            messages.append(f"controls of robots {robots} {words} (robot {found[0].message})")
     if report is not None:
-        report.violations += [Violation(tick, p) for p in problems]
+        report.violations += [Violation(tick, m) for m in messages]
     return controls
 
 

@@ -12,23 +12,30 @@ Crazyflie node can wrap it the same way (``docs/team-api.md`` has a complete, te
         log(step.events)             # everything that happened this tick
 
 Inputs are checked before anything is updated; a wrong shape or length raises ``ValueError``
-naming the field. Lists are accepted wherever arrays are.
+naming the field. Lists are accepted wherever arrays are. The policy's decision is checked too
+(:mod:`~resilient_tracking.policies.checks`): a robot whose control is not finite or breaks its
+velocity bounds holds its position instead, with an ``invalid_decision`` event naming the policy.
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.checks import DecisionProblem, decision_problems
 from resilient_tracking.scenario import Scenario
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -67,19 +74,31 @@ def _initial_means(value: object, n_targets: int) -> np.ndarray:
 
 
 class Team:
-    """Belief plus policy for ``M`` robots tracking ``N`` targets."""
+    """Belief plus policy for ``M`` robots tracking ``N`` targets.
 
-    def __init__(self, policy: Policy, initial_estimate: TargetEstimate):
+    The belief starts from ``initial_estimate``, keeps what the policy declares it needs
+    (:meth:`~resilient_tracking.policies.base.Policy.belief_needs`) and estimates with
+    ``estimator`` (default: the EKF of the team's target model and sensor).
+    """
+
+    def __init__(
+        self,
+        policy: Policy,
+        initial_estimate: TargetEstimate,
+        estimator: Estimator | None = None,
+    ):
         self.policy = policy
-        config = policy.config
+        #: the team's own description: robots, bounds, sensor (the policy's)
+        self.config = config = policy.config
         self.belief = TeamBelief(
             n_robots=config.n_robots,
             initial=initial_estimate,
-            ekf=ExtendedKalmanFilter(config.target_model, config.sensor),
-            learns_zones=policy.learns_zones,
-            silent_robot_watch=policy.silent_robot_watch,
+            estimator=estimator or ExtendedKalmanFilter(config.target_model, config.sensor),
+            needs=policy.belief_needs(),
         )
         self.n_targets = int(initial_estimate.mean.shape[0])
+        #: robot-steps whose control the policy got wrong (each one held position instead)
+        self.invalid_controls = 0
 
     @classmethod
     def from_scenario(
@@ -121,9 +140,49 @@ class Team:
         events += [Event(obs.step, robot, "recover", kind) for robot, kind in obs.recoveries]
         events += self.belief.update(obs)
         decision = self.policy.act(self.belief, obs)
+        controls, problems = decision_problems(decision, self.config, obs.positions)
+        if problems:
+            decision = self._contain(decision, controls, problems, obs)
         events += decision.events
         events += [
             Event(obs.step, robot, "zone_learned", f"{z.key} {z.kind} via {z.source}")
             for robot, z in self.belief.learned
         ]
         return TeamStep(controls=decision.controls, decision=decision, events=events)
+
+    def _contain(
+        self,
+        decision: object,
+        controls: np.ndarray | None,
+        problems: list[DecisionProblem],
+        obs: TeamObservation,
+    ) -> Decision:
+        """The decision with every robot whose control is wrong holding position (zero velocity,
+        always within bounds) and an ``invalid_decision`` event per problem and robot."""
+        m, name = obs.n_robots, getattr(self.policy, "name", type(self.policy).__name__)
+        held = {p.robot for p in problems if p.robot is not None}
+        if controls is None:  # no usable controls at all
+            held = set(range(m))
+        safe = np.zeros((m, 2)) if controls is None else controls.copy()
+        safe[sorted(held)] = 0.0
+        given = decision if isinstance(decision, Decision) else Decision(safe, [])
+        modes = list(given.modes) if isinstance(given.modes, list | tuple) else []
+        if len(modes) != m or not all(isinstance(x, str) for x in modes):
+            modes = [name] * m
+        for i in held:
+            modes[i] = "hold"
+        contained = Decision(safe, modes, events=list(given.events), plans=list(given.plans))
+        for p in problems:
+            for i in [p.robot] if p.robot is not None else range(m):
+                contained.events.append(
+                    Event(obs.step, i, "invalid_decision", f"policy {name}: {p.message}")
+                )
+        self.invalid_controls += len(held)
+        log.warning(
+            "step %d: policy %s: %s; robots %s hold position",
+            obs.step,
+            name,
+            "; ".join(p.message for p in problems[:3]),
+            sorted(held),
+        )
+        return contained

@@ -57,24 +57,13 @@ class ExtendedKalmanFilter:
         self.sensor = sensor
         self._a = model.transition
         self._q = model.process_noise
-        #: the last prediction, by its input: each tick the planner predicts the league
-        #: estimate that the belief predicts again at the next tick
-        self._last: tuple[TargetEstimate, FloatArray, FloatArray, TargetEstimate] | None = None
 
     def predict(self, est: TargetEstimate) -> TargetEstimate:
-        """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object).
-
-        Estimates are values (nothing changes their arrays in place), so predicting the same
-        estimate again returns the same prediction, computed once."""
-        last = self._last
-        if last is not None and last[0] is est and last[1] is est.mean and last[2] is est.cov:
-            return last[3]
+        """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object)."""
         a = self._a
         mean = est.mean @ a.T
         cov = np.einsum("ij,njk,lk->nil", a, est.cov, a) + self._q
-        predicted = TargetEstimate(mean, _symmetrize(cov))
-        self._last = (est, est.mean, est.cov, predicted)
-        return predicted
+        return TargetEstimate(mean, _symmetrize(cov))
 
     def update(
         self,

@@ -6,8 +6,8 @@ addition to Alg. 3), and a silent robot seen circling (CircularEvasionMode, Alg.
 its attacker is: the fitted circle becomes a comm zone estimate. Both are learned by every
 listener; the league shares them from the next tick on like any other knowledge.
 
-The team's belief runs this watch at the end of its update when the policy asks for it
-(:attr:`~resilient_tracking.policies.base.Policy.silent_robot_watch`).
+The team's belief runs this watch at the end of its update when the policy needs it
+(:class:`~resilient_tracking.belief.needs.BeliefNeeds`).
 """
 
 from __future__ import annotations

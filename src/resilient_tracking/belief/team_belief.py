@@ -6,12 +6,15 @@ Each tick (docs/model.md §3–4):
 2. leagues are the connected components of the observed link graph;
 3. league estimates follow the robots: a league that gathers robots from several previous
    leagues fuses their estimates by covariance intersection, a league that split keeps a copy;
-4. each league's EKF predicts to now and updates with its sensing members' measurements;
+4. each league's estimate is predicted to now (the prediction the policy planned with at the
+   last tick, when the league is unchanged: one prediction per step) and updated with its
+   sensing members' measurements by the team's estimator (the EKF by default);
 5. every league covariance is checked (symmetric positive definite) and repaired with a
    ``covariance_repaired`` event if it drifted (:mod:`resilient_tracking.belief.health`);
 6. knowledge is merged within each league;
-7. if the policy asks for it, robots with links watch silent ones and learn the comm zones
-   they reveal (:mod:`resilient_tracking.belief.silent_robots`, Alg. 3).
+7. if the policy needs it (:class:`~resilient_tracking.belief.needs.BeliefNeeds`), robots
+   with links watch silent ones and learn the comm zones they reveal
+   (:mod:`resilient_tracking.belief.silent_robots`, Alg. 3).
 """
 
 from __future__ import annotations
@@ -22,11 +25,12 @@ from typing import Literal
 
 import numpy as np
 
-from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.fusion import fuse_estimates
 from resilient_tracking.belief.health import repair_covariances
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.silent_robots import SilentRobotWatch
 from resilient_tracking.events import TEAM, Event
 from resilient_tracking.models.graph import components
@@ -42,20 +46,24 @@ class TeamBelief:
         self,
         n_robots: int,
         initial: TargetEstimate,
-        ekf: ExtendedKalmanFilter,
-        learns_zones: bool = True,
+        estimator: Estimator,
+        needs: BeliefNeeds | None = None,
         ci_criterion: Literal["trace", "det"] = "trace",
-        silent_robot_watch: SilentRobotWatch | None = None,
     ):
         self.n_robots = n_robots
-        self.ekf = ekf
-        self.learns_zones = learns_zones
+        #: predicts and updates the league estimates (the EKF of :mod:`~.ekf` by default)
+        self.estimator = estimator
+        self.needs = needs or BeliefNeeds()
+        self.learns_zones = self.needs.zones
         self.ci_criterion = ci_criterion
         #: infers comm zones from silent teammates at the end of each update (or ``None``)
-        self.silent_robot_watch = silent_robot_watch
+        settings = self.needs.silent_robots
+        self.silent_robot_watch = None if settings is None else SilentRobotWatch(settings)
         self.leagues: list[list[int]] = [list(range(n_robots))]
         self.league_of = np.zeros(n_robots, dtype=int)
         self.estimates: list[TargetEstimate] = [initial]  # one per league
+        #: each league's estimate predicted to the next tick, made once (:meth:`predicted`)
+        self._predicted: list[TargetEstimate | None] = [None]
         #: replaces a covariance that stopped being finite (the prior spread of target 0)
         self._prior_block = initial.cov[0].copy()
         self.knowledge: list[KnowledgeBase] = [KnowledgeBase() for _ in range(n_robots)]
@@ -76,7 +84,7 @@ class TeamBelief:
                 self._learn(attack.robot, ZoneEstimate.from_clue(attack.clue, obs.step))
         events += self._regroup(components(obs.links), obs.step)
         if self.last_step is not None:
-            self.estimates = [self.ekf.predict(e) for e in self.estimates]
+            self.estimates = [self.predicted(k) for k in range(len(self.estimates))]
         self.last_step = obs.step
         for k, league in enumerate(self.leagues):
             sensing = [i for i in league if obs.sensing_ok[i]]
@@ -86,8 +94,9 @@ class TeamBelief:
                 positions, measurements = obs.positions, obs.measurements
             else:
                 positions, measurements = obs.positions[sensing], obs.measurements[sensing]
-            self.estimates[k] = self.ekf.update(self.estimates[k], positions, measurements)
+            self.estimates[k] = self.estimator.update(self.estimates[k], positions, measurements)
         events += self._check_health(obs.step)
+        self._predicted = [None] * len(self.estimates)
         if self.learns_zones:
             self._share_knowledge()
             if self.silent_robot_watch is not None:
@@ -160,6 +169,7 @@ class TeamBelief:
             estimates.append(estimate)
         self.leagues = leagues
         self.estimates = estimates
+        self._predicted = [None] * len(estimates)
         self.league_of = np.empty(self.n_robots, dtype=int)
         for k, league in enumerate(leagues):
             self.league_of[league] = k
@@ -177,6 +187,14 @@ class TeamBelief:
                 self.knowledge[i] = merged.copy()
 
     # ------------------------------------------------------------------ queries
+
+    def predicted(self, league: int) -> TargetEstimate:
+        """League ``league``'s estimate predicted one step ahead, to the next tick: what its
+        plan is made against, and the prior of its next update (computed once per tick)."""
+        found = self._predicted[league]
+        if found is None:
+            found = self._predicted[league] = self.estimator.predict(self.estimates[league])
+        return found
 
     def league_knowledge(self, league: list[int]) -> KnowledgeBase:
         """Knowledge shared within a league (identical for its members after a tick)."""

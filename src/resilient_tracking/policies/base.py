@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
@@ -28,7 +29,6 @@ from resilient_tracking.registry import Registry
 from resilient_tracking.team_config import TeamConfig
 
 if TYPE_CHECKING:
-    from resilient_tracking.belief.silent_robots import SilentRobotWatch
     from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 
 
@@ -61,9 +61,10 @@ class Policy(ABC):
     """Decides every robot's velocity from belief, once per tick.
 
     Subclasses set ``name``, ``Params`` (a pydantic model of their parameters) and implement
-    :meth:`act`. ``learns_zones`` says whether the team keeps zone knowledge at all (the vanilla
-    team does not); ``silent_robot_watch``, if set, lets the belief infer comm zones from
-    silent teammates (the failure-aware policy's Alg. 3).
+    :meth:`act`. A policy declares what it needs of the belief, never configures it:
+    ``learns_zones`` says whether the team keeps zone knowledge at all (the vanilla team does
+    not); :meth:`belief_needs` says it all (the failure-aware policy adds the comm zones
+    inferred from silent teammates, Alg. 3).
     """
 
     name: ClassVar[str] = "policy"
@@ -75,8 +76,11 @@ class Policy(ABC):
         self.config = config
         #: the validated ``Params`` (their defaults when none are given)
         self.params = self.Params() if params is None else params
-        #: how the belief watches silent robots for this policy (``None``: it does not)
-        self.silent_robot_watch: SilentRobotWatch | None = None
+
+    def belief_needs(self) -> BeliefNeeds:
+        """What this policy needs of the team's belief (by default: zone knowledge if
+        ``learns_zones``)."""
+        return BeliefNeeds(zones=self.learns_zones)
 
     @classmethod
     def build(

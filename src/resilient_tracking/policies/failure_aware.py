@@ -14,7 +14,8 @@ Per league, every tick:
 
 League members also watch silent robots: a circle fitted to one's positions becomes a comm
 zone estimate (Alg. 3) that the league avoids from then on. That learning happens in belief
-(:mod:`resilient_tracking.belief.silent_robots`), set up here from the policy's parameters.
+(:mod:`resilient_tracking.belief.silent_robots`); the policy declares it needs it, with its
+parameters (:meth:`FailureAwarePolicy.belief_needs`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ import numpy as np
 
 from resilient_tracking.belief.circle_fit import CircleGates
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
-from resilient_tracking.belief.silent_robots import SilentRobotSettings, SilentRobotWatch
+from resilient_tracking.belief.needs import BeliefNeeds
+from resilient_tracking.belief.silent_robots import SilentRobotSettings
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, chance_margin
@@ -57,9 +59,24 @@ class FailureAwarePolicy(PlanningPolicy):
         super().__init__(config, params, planner)
         self.beta1 = chance_margin(params.eps1)
         self.beta2 = chance_margin(params.eps2)
+        #: the team is in cool-down while ``step < cooldown_until``
+        self.cooldown_until = -1
+        #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
+        self.last_weights = np.zeros((config.n_robots, 5))
+        #: the weights of each situation, computed once (the parameters are fixed at creation)
+        self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
+        #: the last zone rows made: the zones they came from, w5, alone, and the two tables
+        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, ZoneTables] | None = None
+
+    # ------------------------------------------------------------------ the tick
+
+    def belief_needs(self) -> BeliefNeeds:
+        """Zone knowledge, and comm zones inferred from silent teammates (Alg. 3)."""
+        params = self.params
         fit = params.circle_fit
-        self.silent_robot_watch = SilentRobotWatch(
-            SilentRobotSettings(
+        return BeliefNeeds(
+            zones=True,
+            silent_robots=SilentRobotSettings(
                 gates=CircleGates(
                     window=fit.window,
                     min_samples=fit.min_samples,
@@ -73,19 +90,9 @@ class FailureAwarePolicy(PlanningPolicy):
                 beta2=self.beta2,
                 circle_margin=params.circle_margin,
                 silence_std=params.silence_std,
-                comm_range=config.comm_range,
-            )
+                comm_range=self.config.comm_range,
+            ),
         )
-        #: the team is in cool-down while ``step < cooldown_until``
-        self.cooldown_until = -1
-        #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
-        self.last_weights = np.zeros((config.n_robots, 5))
-        #: the weights of each situation, computed once (the parameters are fixed at creation)
-        self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
-        #: the last zone rows made: the zones they came from, w5, alone, and the two tables
-        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, ZoneTables] | None = None
-
-    # ------------------------------------------------------------------ the tick
 
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
         """Algorithm 1 for one tick: per league, circle, plan alone or plan together."""

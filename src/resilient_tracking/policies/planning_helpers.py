@@ -70,7 +70,7 @@ class PlanningPolicy(Policy):
         route program each robot's route row."""
         sensing_zones = sensing_table() if sensing_zones is None else sensing_zones
         comm_zones = comm_table() if comm_zones is None else comm_zones
-        predicted = belief.ekf.predict(belief.estimates[league])
+        predicted = belief.predicted(league)
         lower, upper = self.config.velocity_bounds(robots, obs.positions)
         q = ProblemInputs(
             positions=obs.positions[robots],

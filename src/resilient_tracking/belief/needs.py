@@ -1,0 +1,22 @@
+"""What a policy needs of the team's belief, declared by the policy and honoured by the belief.
+
+The belief always keeps the leagues and one target estimate per league. Beyond that a policy
+may ask for zone knowledge (attack clues learned and shared within leagues; a vanilla team
+keeps none) and for comm zones inferred from silent teammates (the paper's Alg. 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from resilient_tracking.belief.silent_robots import SilentRobotSettings
+
+
+@dataclass(frozen=True)
+class BeliefNeeds:
+    """The belief a policy decides from (module docstring)."""
+
+    #: learn zones from attack clues and share them within each league
+    zones: bool = True
+    #: infer comm zones from silent teammates with these settings (``None``: do not)
+    silent_robots: SilentRobotSettings | None = None
