@@ -12,8 +12,10 @@ from resilient_tracking.cli import main
 from resilient_tracking.experiments.comparison import (
     apply_overrides,
     confidence_interval,
+    describe_seeds,
     make_study,
     parse_override,
+    parse_seeds,
     summary_table,
     wins,
 )
@@ -36,6 +38,24 @@ def test_overrides_reach_the_scenario_and_bad_ones_name_the_field():
         apply_overrides(scenario, [("policy.failure_aware.eps1", 0.9)])
     with pytest.raises(ScenarioError, match="zones.7.mu"):
         apply_overrides(scenario, [("zones.7.mu", [0, 0])])
+
+
+def test_seeds_are_a_count_a_range_or_a_list():
+    assert parse_seeds("3", 1000) == (1, 2, 3)
+    assert parse_seeds("101-104", 1000) == (101, 102, 103, 104)
+    assert parse_seeds("7, 2,7", 1000) == (7, 2)
+    assert describe_seeds((101, 102, 103)) == "101..103"
+    assert describe_seeds((7, 2)) == "7, 2"
+    for text, message in [
+        ("0", "between 1 and 1000"),
+        ("5000", "between 1 and 1000"),
+        ("9-3", "empty range"),
+        ("1-2000", "at most 1000 seeds"),
+        ("-3,1", "non-negative"),
+        ("a-b", "expected N, A-B or a,b,c"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            parse_seeds(text, 1000)
 
 
 def test_confidence_interval_is_students_t():

@@ -215,23 +215,23 @@ def _not_a_folder(out: Path) -> bool:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    """``rtrack compare``: run every ``--policies`` entry on every scenario for seeds 1..N as a
+    """``rtrack compare``: run every ``--policies`` entry on every scenario for each seed as a
     resumable sweep and write ``OUT/report.md`` (docs/compare.md)."""
     from resilient_tracking.experiments.comparison import (
         make_study,
         parse_override,
+        parse_seeds,
         write_compare_report,
     )
     from resilient_tracking.experiments.sweep import run_sweep
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
-    if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
-        return 1
     try:
+        seeds = parse_seeds(args.seeds, MAX_SEEDS)
         overrides = [parse_override(text) for text in args.set]
         policies = [p.strip() for p in args.policies.split(",") if p.strip()]
-        study = make_study(args.scenario, policies, args.seeds, overrides)
+        study = make_study(args.scenario, policies, seeds, overrides)
         tasks = study.tasks()
     except (ScenarioError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
@@ -536,7 +536,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "compare",
         help="compare policies over seeds on scenarios, resumable, and write report.md",
-        description="Run every policy on every scenario for seeds 1..N (stored runs are reused), "
+        description="Run every policy on every scenario for each seed (stored runs are reused), "
         "then write OUT/report.md: mean and 95%% confidence interval per metric, paired win "
         "counts, bands, box plots and snapshots (docs/compare.md).",
     )
@@ -547,7 +547,11 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"comma-separated: {', '.join(POLICY_NAMES)}, a registered name or "
         "package.module:Class (default: failure_aware,vanilla)",
     )
-    p.add_argument("--seeds", type=int, default=5, help="seeds 1..N per policy (default: 5)")
+    p.add_argument(
+        "--seeds",
+        default="5",
+        help="N for seeds 1..N, A-B for seeds A..B, or a,b,c (default: 5)",
+    )
     p.add_argument(
         "--set",
         action="append",

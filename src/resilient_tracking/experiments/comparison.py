@@ -8,6 +8,8 @@ seed-NNN/``, resumable, a stale run is run again), then summarised in ``OUT/repo
 - paired win counts: runs of different policies with the same seed meet the same zone draws
   (common random numbers), so seed by seed one policy either did better or did not;
 - mean ± 1 std bands over time, box plots over seeds and trajectory snapshots.
+
+Seeds are ``N`` (1..N), a range ``A-B`` or a list ``a,b,c``.
 """
 
 from __future__ import annotations
@@ -73,6 +75,41 @@ class Study:
         return out
 
 
+def parse_seeds(text: str, most: int) -> tuple[int, ...]:
+    """``--seeds``: ``N`` is seeds 1..N, ``A-B`` seeds A..B, ``a,b,c`` those seeds; at most
+    ``most`` of them (``ValueError`` naming the option otherwise)."""
+    text = text.strip()
+    try:
+        if "," in text:
+            seeds = tuple(dict.fromkeys(int(part) for part in text.split(",")))
+        elif "-" in text.lstrip("-"):
+            low, _, high = text.partition("-")
+            seeds = tuple(range(int(low), int(high) + 1))
+            if not seeds:
+                raise ValueError(f"--seeds: {text!r} is an empty range")
+        else:
+            count = int(text)
+            if not 1 <= count <= most:
+                raise ValueError(f"--seeds: must be between 1 and {most} (got {count})")
+            return tuple(range(1, count + 1))
+    except ValueError as err:
+        if str(err).startswith("--seeds"):
+            raise
+        raise ValueError(f"--seeds: expected N, A-B or a,b,c (got {text!r})") from None
+    if min(seeds) < 0:
+        raise ValueError(f"--seeds: seeds must be non-negative (got {min(seeds)})")
+    if len(seeds) > most:
+        raise ValueError(f"--seeds: at most {most} seeds (got {len(seeds)})")
+    return seeds
+
+
+def describe_seeds(seeds: Sequence[int]) -> str:
+    """``1..5`` for consecutive seeds, ``1, 3, 7`` otherwise."""
+    if list(seeds) == list(range(seeds[0], seeds[0] + len(seeds))):
+        return f"{seeds[0]}..{seeds[-1]}"
+    return ", ".join(str(s) for s in seeds)
+
+
 def parse_override(text: str) -> tuple[str, object]:
     """``dotted.path=value`` → (path, value); the value is read as YAML (``0.05``, ``[1, 2]``)."""
     path, sep, value = text.partition("=")
@@ -103,10 +140,11 @@ def apply_overrides(scenario: Scenario, overrides: Sequence[tuple[str, object]])
 def make_study(
     scenario_args: Sequence[str],
     policies: Sequence[str],
-    n_seeds: int,
+    seeds: int | Sequence[int],
     overrides: Sequence[tuple[str, object]] = (),
 ) -> Study:
-    """Load and validate everything before anything runs (``ScenarioError`` / ``ValueError``)."""
+    """Load and validate everything before anything runs (``ScenarioError`` / ``ValueError``);
+    ``seeds`` is a count ``N`` (seeds 1..N) or the seeds themselves."""
     from resilient_tracking.policies import POLICIES
     from resilient_tracking.registry import UnknownName
 
@@ -117,17 +155,16 @@ def make_study(
             POLICIES.get(name)
         except UnknownName as err:
             raise ValueError(f"--policies: {err}") from None
-    if n_seeds < 1:
-        raise ValueError(f"--seeds: must be at least 1 (got {n_seeds})")
+    seeds = tuple(range(1, seeds + 1)) if isinstance(seeds, int) else tuple(seeds)
+    if not seeds:
+        raise ValueError("--seeds: none given")
     loaded: dict[str, Scenario] = {}
     for arg in scenario_args:
         label = Path(arg).stem if Path(arg).suffix in (".yaml", ".yml") else str(arg)
         if label in loaded:
             label = f"{label}-{len(loaded) + 1}"
         loaded[label] = apply_overrides(scenarios.load(arg), overrides)
-    return Study(
-        loaded, tuple(dict.fromkeys(policies)), tuple(range(1, n_seeds + 1)), tuple(overrides)
-    )
+    return Study(loaded, tuple(dict.fromkeys(policies)), seeds, tuple(overrides))
 
 
 # ---------------------------------------------------------------------------- summary
@@ -295,7 +332,7 @@ def write_compare_report(study: Study, tasks: list[Task], out: Path, command: st
         "# Policy comparison",
         "",
         f"Produced by `{command}`: policies {', '.join(study.policies)}; seeds "
-        f"{study.seeds[0]}..{study.seeds[-1]}; overrides {overrides}. Per-run rows in "
+        f"{describe_seeds(study.seeds)}; overrides {overrides}. Per-run rows in "
         "`runs.csv`, the table below in `summary.csv`.",
         "",
         *sections,
