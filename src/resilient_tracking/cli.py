@@ -231,7 +231,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
         seeds = parse_seeds(args.seeds, MAX_SEEDS)
         overrides = [parse_override(text) for text in args.set]
         policies = [p.strip() for p in args.policies.split(",") if p.strip()]
-        study = make_study(args.scenario, policies, seeds, overrides)
+        study = make_study(
+            args.scenario, policies, seeds, overrides, args.zone_free, args.by_zone_kind
+        )
         tasks = study.tasks()
     except (ScenarioError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
@@ -559,6 +561,22 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PATH=VALUE",
         help="override a scenario field by dotted path, e.g. policy.failure_aware.eps1=0.05 "
         "(repeatable; applied to every scenario)",
+    )
+    p.add_argument(
+        "--zone-free",
+        nargs="?",
+        const="failure_aware",
+        default=None,
+        metavar="POLICY",
+        help="also run every scenario with its zones removed, same seeds, with POLICY (default: "
+        "failure_aware), and report each policy's last-third ratio: mean trace over the final "
+        "third of the episode divided by the zone-free run's",
+    )
+    p.add_argument(
+        "--by-zone-kind",
+        action="store_true",
+        help="report the first policy's win rates against each other one over the scenarios, "
+        "split by whether a scenario has a comm zone, with Wilson 95%% intervals",
     )
     p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
     _add_sweep_options(p)
