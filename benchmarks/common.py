@@ -5,12 +5,12 @@ from __future__ import annotations
 import json
 import os
 import platform
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import casadi
 import numpy as np
+import numpy.typing as npt
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import SIX
@@ -47,7 +47,7 @@ def machine() -> dict[str, Any]:
     }
 
 
-def summary_ms(values_ms: Sequence[float]) -> dict[str, float]:
+def summary_ms(values_ms: npt.ArrayLike) -> dict[str, float]:
     v = np.asarray(values_ms, dtype=float)
     if not len(v):
         return {k: float("nan") for k in ("median", "p90", "p99", "max", "mean")}

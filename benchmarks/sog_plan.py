@@ -82,7 +82,8 @@ class Reference:
 
 def replay(planner: str, steps: list[Step], keep: list[Any]) -> dict[str, Any]:
     """Solve every step with ``planner``; times in ms, controls and objectives per step."""
-    times, controls, objectives, rungs, iterations = [], [], [], Counter(), []
+    times, controls, objectives, iterations = [], [], [], []
+    rungs: Counter[str] = Counter()
     if planner == "before":
         ref = Reference()
         for members, q in steps:

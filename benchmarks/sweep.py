@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import time
-from typing import Any
+from typing import Any, TypedDict
 
 from joblib import Parallel, delayed
 from joblib.externals.loky import get_reusable_executor
@@ -25,6 +25,14 @@ from benchmarks.common import SCENARIOS, SHIPPED, machine, save, table
 from resilient_tracking.planning.nlp_cache import nlp_cache, wait_for_compilers
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.sim.episode import run_episode
+
+
+class SweepResult(TypedDict):
+    """One sweep's wall seconds, time-averaged traces and the episodes' summed CPU seconds."""
+
+    wall_s: float
+    traces: list[float]
+    episode_cpu_s: float
 
 
 def one(name: str, seed: int) -> tuple[float, float]:
@@ -62,7 +70,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     for name, seed in runs:  # warm-up: fill the compiled-code cache for every structure
         one(name, seed)
     wait_for_compilers()
-    results = {}
+    results: dict[int, SweepResult] = {}
     for jobs in (1, 2):
         wall, traces, cpu = sweep(runs, jobs)
         results[jobs] = {"wall_s": wall, "traces": traces, "episode_cpu_s": cpu}

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,8 +14,11 @@ from resilient_tracking.cli import main
 from resilient_tracking.experiments.comparison import (
     apply_overrides,
     confidence_interval,
+    describe_seeds,
+    last_third_ratios,
     make_study,
     parse_override,
+    parse_seeds,
     summary_table,
     wins,
 )
@@ -38,6 +43,24 @@ def test_overrides_reach_the_scenario_and_bad_ones_name_the_field():
         apply_overrides(scenario, [("zones.7.mu", [0, 0])])
 
 
+def test_seeds_are_a_count_a_range_or_a_list():
+    assert parse_seeds("3", 1000) == (1, 2, 3)
+    assert parse_seeds("101-104", 1000) == (101, 102, 103, 104)
+    assert parse_seeds("7, 2,7", 1000) == (7, 2)
+    assert describe_seeds((101, 102, 103)) == "101..103"
+    assert describe_seeds((7, 2)) == "7, 2"
+    for text, message in [
+        ("0", "between 1 and 1000"),
+        ("5000", "between 1 and 1000"),
+        ("9-3", "empty range"),
+        ("1-2000", "at most 1000 seeds"),
+        ("-3,1", "non-negative"),
+        ("a-b", "expected N, A-B or a,b,c"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            parse_seeds(text, 1000)
+
+
 def test_confidence_interval_is_students_t():
     values = np.array([1.0, 2.0, 4.0, 7.0])
     low, high = confidence_interval(values)
@@ -57,6 +80,7 @@ def test_paired_wins_and_best_counts_compare_seed_by_seed():
             "effort": 0.0,
             "sensing_attacks": 0,
             "comm_attacks": 0,
+            "robots_attacked": 0,
             "survival_steps": [10, 20, 10, 20, 10, 20],
         }
     )
@@ -123,3 +147,96 @@ def test_dask_logs_are_quiet_without_verbose(tmp_path, capfd):
     assert main(argv) == 0
     err = capfd.readouterr().err
     assert "INFO" not in err, err
+
+
+def test_the_zone_free_reference_is_one_run_per_scenario_and_seed_without_zones():
+    study = make_study(["sensing-temp", "combined-temp"], ["failure_aware", "vanilla"], [4, 9])
+    assert study.zone_free is None and len(study.tasks()) == 8
+    study = make_study(
+        ["sensing-temp", "combined-temp"], ["failure_aware", "vanilla"], [4, 9], zone_free="vanilla"
+    )
+    free = [t for t in study.tasks() if t.variant.tags.get("no_zones")]
+    assert [(t.experiment, t.seed) for t in free] == [
+        ("sensing-temp", 4),
+        ("sensing-temp", 9),
+        ("combined-temp", 4),
+        ("combined-temp", 9),
+    ]
+    for t in free:
+        assert t.variant.label == "vanilla-nozone" and t.variant.policy == "vanilla"
+        assert t.scenario.zones == [] and t.scenario.seed == t.seed
+        assert t.scenario.robots == study.scenarios[t.experiment].robots
+    with pytest.raises(ValueError, match="--zone-free"):
+        make_study(["sensing-temp"], ["vanilla"], 1, zone_free="vanila")
+
+
+def test_last_third_ratios_divide_by_the_reference_run_of_the_same_scenario_and_seed():
+    def row(scenario, policy, seed, last_third, free=False):
+        return {
+            "scenario": scenario,
+            "tag_scenario": scenario,
+            "policy": policy,
+            "seed": seed,
+            "last_third_trace": last_third,
+            "tag_no_zones": free,
+        }
+
+    runs = pd.DataFrame(
+        [
+            row("b", "failure_aware", 1, 6.0),
+            row("b", "vanilla", 1, 30.0),
+            row("b", "failure_aware", 2, 4.0),
+            row("b", "vanilla", 2, 8.0),
+            row("b", "failure_aware", 1, 3.0, free=True),
+            row("b", "failure_aware", 2, 4.0, free=True),
+            row("a", "failure_aware", 1, 1.0),
+            row("a", "vanilla", 1, 2.0),
+            row("a", "failure_aware", 1, 0.5, free=True),
+        ]
+    )
+    ratios = last_third_ratios(runs, "failure_aware")
+    assert ratios.values.tolist() == [
+        ["b", "failure_aware", 1, 2.0],
+        ["b", "failure_aware", 2, 1.0],
+        ["b", "vanilla", 1, 10.0],
+        ["b", "vanilla", 2, 2.0],
+        ["a", "failure_aware", 1, 2.0],
+        ["a", "vanilla", 1, 4.0],
+    ]
+    table = summary_table(ratios, [("last_third_ratio", "ratio", True)]).set_index(
+        ["scenario", "policy"]
+    )
+    assert table.loc[("b", "vanilla"), "mean"] == 6.0
+    assert table.loc[("b", "failure_aware"), "best_in"] == 2
+
+
+def test_by_zone_kind_needs_two_policies():
+    with pytest.raises(ValueError, match="--by-zone-kind"):
+        make_study(["sensing-temp"], ["vanilla"], 1, by_zone_kind=True)
+
+
+def test_compare_reports_the_zone_free_ratio_and_win_rates_by_zone_kind(tmp_path, capsys):
+    out = tmp_path / "Z"
+    argv = ["compare", "sensing-temp", "comm-temp", "--seeds", "3-3", "--set", "steps=12"]
+    argv += ["--zone-free", "--by-zone-kind", "--out", str(out), "--jobs", "1", "-q"]
+    assert main(argv) == 0
+    assert "6 run(s) done" in capsys.readouterr().out
+    free = out / "runs" / "comm-temp" / "failure_aware-nozone" / "seed-003"
+    assert json.loads((free / "manifest.json").read_text())["scenario"]["zones"] == []
+    runs = pd.read_csv(out / "runs.csv")
+    assert runs.groupby("tag_no_zones").size().to_dict() == {False: 4, True: 2}
+    summary = pd.read_csv(out / "summary.csv")
+    ratios = summary[summary.metric == "last_third_ratio"]
+    assert sorted(zip(ratios.scenario, ratios.policy, strict=True)) == [
+        ("comm-temp", "failure_aware"),
+        ("comm-temp", "vanilla"),
+        ("sensing-temp", "failure_aware"),
+        ("sensing-temp", "vanilla"),
+    ]
+    assert summary[summary.metric == "trace"]["n"].tolist() == [1, 1, 1, 1]  # no reference
+    rates = pd.read_csv(out / "win_rates.csv")
+    assert sorted(set(rates.kind)) == ["all", "sensing zones only", "with a comm zone"]
+    assert set(rates.scenarios) == {1, 2}
+    report = (out / "report.md").read_text()
+    assert "## Win rates by zone kind" in report and "zone-free reference runs of" in report
+    assert report.count("| policy | last third ÷ zone-free | stragglers |") == 2

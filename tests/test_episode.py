@@ -29,30 +29,50 @@ def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
         )
 
 
-def test_setup_runs_before_the_first_step_with_the_episodes_world_and_team():
-    """A team that knows the zone from the start (seeded in ``setup``) keeps clear of it from
-    step 0, so it is attacked less than the team that learns it by being attacked."""
-    from resilient_tracking.belief.knowledge import ZoneEstimate
+def _known(scenario):
+    """``scenario`` with every zone marked ``known``."""
+    zones = [z.model_dump() | {"known": True} for z in scenario.zones]
+    return scenario.with_overrides(zones=zones)
 
+
+def test_known_zones_are_held_from_step_0_as_their_priors_never_their_true_centres():
+    scenario = _known(shipped("combined-temp").with_overrides(steps=3))
+    result = run_episode(scenario, policy="failure_aware", seed=5)
+    first = result["knowledge"][result["knowledge"]["step"] == 0]
+    assert sorted(zip(first.robot, first.zone, strict=True)) == [
+        (robot, zone) for robot in range(3) for zone in range(3)
+    ]
+    assert set(first.source) == {"broadcast"}
+    zones = result["zones"].set_index("zone")
+    for row in first.itertuples():
+        spec = scenario.zones[row.zone]
+        assert (row.x, row.y) == tuple(spec.mu) and row.size == spec.size
+        assert (row.x, row.y) != (zones.true_x[row.zone], zones.true_y[row.zone])
+    learned = result["events"][result["events"]["event"] == "zone_learned"]
+    assert len(learned) == 9 and set(learned.step) == {0}
+    vanilla = run_episode(scenario, policy="vanilla", seed=5)
+    assert vanilla["knowledge"].empty  # a team without zone knowledge ignores the map
+
+
+def test_a_team_that_knows_the_zone_from_the_start_is_attacked_less():
+    """It keeps clear of the zone from step 0 instead of learning it by being attacked; with
+    ``known: false`` written out the run is the default one, bit for bit."""
     scenario = shipped("sensing-temp").with_overrides(steps=150)
-    calls = []
-
-    def know_the_zone(world, team):
-        calls.append(len(team.belief.knowledge))
-        for zone in world.zones:
-            for robot in range(world.n_robots):
-                team.belief.knowledge[robot].learn(ZoneEstimate.from_clue(zone.clue(), 0))
-
     attacks = {}
     for seed in (1, 2, 3):
         learned = run_episode(scenario, seed=seed)
-        known = run_episode(scenario, seed=seed, setup=know_the_zone)
+        known = run_episode(_known(scenario), seed=seed)
         attacks[seed] = (
             (learned["robots"]["sensing_ok"] == 0).sum(),
             (known["robots"]["sensing_ok"] == 0).sum(),
         )
-    assert calls == [3, 3, 3]
     assert sum(k for _, k in attacks.values()) < sum(lr for lr, _ in attacks.values()), attacks
+    written = scenario.with_overrides(
+        zones=[z.model_dump() | {"known": False} for z in scenario.zones]
+    )
+    again = run_episode(written, seed=3)
+    for name in TABLES:
+        pd.testing.assert_frame_equal(again[name], learned[name])
 
 
 def test_records_have_the_documented_shape():

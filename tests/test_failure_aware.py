@@ -199,6 +199,22 @@ def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
     assert set(guess.robot) == {1, 2} and (guess.step < int(inferred.step.item())).all()
 
 
+def test_a_robot_whose_radio_a_known_zone_destroys_circles_it_too():
+    """The zone is on the team's map from step 0 (``known``); its attack clue still tells the
+    victim which zone struck it, so it circles that zone (Alg. 4) as without the map."""
+    s = circling_scenario(infer=False)
+    s = s.with_overrides(zones=[z.model_dump() | {"known": True} for z in s.zones])
+    result = run_episode(s, seed=1)
+    events, robots = result["events"], result["robots"]
+    hit = events[(events.event == "attack") & (events.robot == 0)]
+    assert len(hit) == 1 and "permanent" in hit.detail.item()
+    k0 = int(hit.step.item())
+    learned = events[(events.event == "zone_learned") & (events.robot == 0)]
+    assert list(learned.detail) == ["zone0 comm via broadcast", "zone0 comm via attack"]
+    r0 = robots[robots.robot == 0]
+    assert set(r0[r0.step > k0]["mode"]) == {"circular"}
+
+
 def _time_near(result, robots_of_interest, center, radius, after):
     r = result["robots"]
     r = r[r.robot.isin(robots_of_interest) & (r.step > after)]

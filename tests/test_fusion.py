@@ -162,6 +162,24 @@ def test_fuse_estimates_per_target(criterion: Criterion) -> None:
     assert a.cov[2, 0, 0] == a_before.cov[2, 0, 0]
 
 
+def test_an_attack_clue_replaces_the_maps_estimate_of_its_zone_and_nothing_else_does():
+    from dataclasses import replace
+
+    from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+    from resilient_tracking.observation import ZoneClue
+
+    clue = ZoneClue(0, "comm", np.zeros(2), 0.09 * np.eye(2), 0.3, "permanent")
+    mapped = ZoneEstimate.from_clue(clue, 0, source="broadcast")
+    kb = KnowledgeBase()
+    assert kb.learn(mapped)
+    assert not kb.learn(replace(mapped, learned_step=4))  # the map again: nothing new
+    assert kb.learn(ZoneEstimate.from_clue(clue, 7))
+    assert (kb.zones["zone0"].source, kb.zones["zone0"].learned_step) == ("attack", 7)
+    assert not kb.learn(mapped)  # the clue is not replaced by the map
+    merged = KnowledgeBase.union([KnowledgeBase({"zone0": mapped}), kb])
+    assert merged.zones["zone0"].source == "attack"
+
+
 def test_a_fitted_circle_replaces_a_provisional_silence_guess_but_not_the_reverse():
     from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 

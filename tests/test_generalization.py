@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import shutil
 from collections import Counter
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from resilient_tracking import scenarios
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.catalog import (
     QUICK_MAX_PAIRS,
@@ -28,6 +24,8 @@ from resilient_tracking.experiments.generalization import (
     straggler_share,
     wilson,
     win_rate,
+    win_rates_by_kind,
+    zone_kind,
 )
 from resilient_tracking.experiments.generator import (
     MEET_EXPOSURE,
@@ -236,31 +234,36 @@ def test_targets_hold_or_fail_as_the_numbers_say():
     assert [c.holds for c in check(exp, winning)] == [True, True, False]
 
 
-def test_suite_wins_splits_the_wins_by_comm_zone(tmp_path):
-    """tools/suite_wins.py counts a win only where failure-aware is strictly lower, per kind."""
-    tool = Path(__file__).resolve().parents[1] / "tools" / "suite_wins.py"
-    spec = importlib.util.spec_from_file_location("suite_wins", tool)
-    assert spec is not None and spec.loader is not None
-    suite_wins = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(suite_wins)
+def test_ratios_against_another_policys_zone_free_run():
+    s = _summary()
+    ratios = nozone_ratios(s, "vanilla", reference="failure_aware")
+    assert ratios.to_dict() == {("g00", 1): 4.0, ("g01", 1): 12.0, ("g02", 1): 0.5}
+    assert nozone_ratios(s, "vanilla").empty  # vanilla has no zone-free runs of its own
+    assert nozone_ratios(s.drop(columns="tag_no_zones")).empty
 
-    suite, runs = tmp_path / "suite", tmp_path / "runs"
-    suite.mkdir()
-    runs.mkdir()
-    shutil.copy(scenarios.path("sensing-temp"), suite / "g00.yaml")
-    shutil.copy(scenarios.path("comm-temp"), suite / "g01.yaml")
-    shutil.copy(scenarios.path("combined-temp"), suite / "g02.yaml")
-    rows = [  # (scenario, policy, trace, mse): g00 wins both, g01 ties in trace, g02 loses MSE
-        ("g00", "failure_aware", 1.0, 1.0),
-        ("g00", "vanilla", 2.0, 2.0),
-        ("g01", "failure_aware", 1.0, 1.0),
-        ("g01", "vanilla", 1.0, 3.0),
-        ("g02", "failure_aware", 1.0, 5.0),
-        ("g02", "vanilla", 2.0, 4.0),
-    ]
-    table = pd.DataFrame(rows, columns=["tag_scenario", "policy", "trace", "mse"])
-    table.assign(seed=1).to_csv(runs / "runs.csv", index=False)
-    table = suite_wins.suite_rows(suite, runs).set_index("kind")
-    assert list(table.index) == ["sensing only", "with a comm zone", "with a comm zone"]
-    assert table.trace_win.tolist() == [True, False, True]
-    assert table.mse_win.tolist() == [True, True, False]
+
+def test_zone_kind_names_the_comm_zone_first():
+    assert zone_kind(["sensing", "comm"]) == "with a comm zone"
+    assert zone_kind(["sensing", "sensing"]) == "sensing zones only"
+    assert zone_kind([]) == "no zones"
+
+
+def test_win_rates_by_kind_compare_the_means_over_seeds_and_count_ties_as_losses():
+    s = _summary()
+    # seed 2: g00 is lost by far, so its mean over both seeds (2.5 against 2.0) is a loss
+    extra = s[(s.tag_scenario == "g00") & (s.seed == 1)].assign(seed=2)
+    extra.loc[extra.policy == "failure_aware", "trace"] = 4.0
+    s = pd.concat([s, extra], ignore_index=True)
+    s.loc[(s.tag_scenario == "g02") & (s.policy == "vanilla"), "mse"] = 1.0  # a tie in MSE
+    kinds = {"g00": "sensing zones only", "g01": "with a comm zone", "g02": "with a comm zone"}
+    trace = win_rates_by_kind(s, kinds, "trace")
+    assert {k: (p.k, p.n) for k, p in trace.items()} == {
+        "all": (1, 3),
+        "sensing zones only": (0, 1),
+        "with a comm zone": (1, 2),
+    }
+    mse = win_rates_by_kind(s, kinds, "mse")
+    assert (mse["with a comm zone"].k, mse["sensing zones only"].k) == (0, 0)
+    assert str(trace["all"]) == str(wilson(1, 3))
+    none = win_rates_by_kind(s, kinds, "trace", against="sog")
+    assert list(none) == ["all"] and (none["all"].k, none["all"].n) == (0, 0)

@@ -15,8 +15,6 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from collections import Counter
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -26,12 +24,11 @@ from resilient_tracking.experiments.catalog import SIX
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.records import EpisodeResult
 from resilient_tracking.sim.soak import non_finite_cells
 
-ROOT = Path(__file__).resolve().parents[1]
 
-
-def closer_to_known_zone(result) -> int:
+def closer_to_known_zone(result: EpisodeResult) -> int:
     """Safe-action steps after which the robot was closer to a zone it knew (should be 0)."""
     events, robots, knowledge = result["events"], result["robots"], result["knowledge"]
     safe = events[(events["event"] == "solver_fallback") & events["detail"].str.startswith("safe")]
@@ -57,7 +54,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=300)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
-    total: Counter[str] = Counter()
     failed = 0
     rows = []
     for name in args.scenarios:
@@ -98,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
         "non_finite",
         "closer",
     ]
-    total.update(table[numeric].sum().astype(int).to_dict())
+    total = {k: int(table[k].sum()) for k in numeric}
     print(f"episodes: {len(rows)} completed, {failed} with a failed check or exception")
     print("total: " + ", ".join(f"{k} {total[k]}" for k in numeric))
     print(f"faults injected: {sum(total[k] for k in FAULT_KINDS)}")

@@ -14,13 +14,10 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from pathlib import Path
 
 from resilient_tracking import scenarios
 from resilient_tracking.scenario import ScenarioError, load_scenario
 from resilient_tracking.sim.soak import soak
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv: list[str] | None = None) -> int:

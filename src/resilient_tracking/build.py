@@ -1,5 +1,5 @@
-"""From a scenario to the objects that run it: the team's own description, its planner and its
-policy.
+"""From a scenario to the objects that run it: the team's own description, its planner, its
+policy and the zones it knows from the start.
 
 The scenario schema (:mod:`resilient_tracking.scenario`) only validates; the components
 (:mod:`~resilient_tracking.policies`, :mod:`~resilient_tracking.planning`, the sensor models)
@@ -12,7 +12,9 @@ from typing import Any
 
 import numpy as np
 
+from resilient_tracking.belief.knowledge import ZoneEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.observation import ZoneClue
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import POLICIES, Policy
 from resilient_tracking.scenario import Scenario
@@ -50,3 +52,25 @@ def make_policy(
     config = config or team_config(scenario)
     params: Any = scenario.policy.params_for(name)
     return cls.build(config, params, planner or LeaguePlanner.from_spec(scenario.planner))
+
+
+def zone_map(scenario: Scenario) -> list[ZoneEstimate]:
+    """The zones the scenario marks ``known`` (a hazard map), as the team holds them from the
+    first tick: each zone's prior ``μ, Σ``, size and persistence, exactly what an attack clue
+    reveals (docs/model.md §3), as if broadcast; never its true centre."""
+    return [
+        ZoneEstimate.from_clue(
+            ZoneClue(
+                zone_id=k,
+                kind=spec.kind,
+                mu=np.asarray(spec.mu, dtype=float),
+                sigma=np.asarray(spec.sigma, dtype=float),
+                size=float(spec.size),
+                persistence=spec.persistence,
+            ),
+            step=0,
+            source="broadcast",
+        )
+        for k, spec in enumerate(scenario.zones)
+        if spec.known
+    ]

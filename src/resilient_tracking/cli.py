@@ -224,23 +224,25 @@ def _not_a_folder(out: Path) -> bool:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    """``rtrack compare``: run every ``--policies`` entry on every scenario for seeds 1..N as a
+    """``rtrack compare``: run every ``--policies`` entry on every scenario for each seed as a
     resumable sweep and write ``OUT/report.md`` (docs/compare.md)."""
     from resilient_tracking.experiments.comparison import (
         make_study,
         parse_override,
+        parse_seeds,
         write_compare_report,
     )
     from resilient_tracking.experiments.sweep import run_sweep
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
-    if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
-        return 1
     try:
+        seeds = parse_seeds(args.seeds, MAX_SEEDS)
         overrides = [parse_override(text) for text in args.set]
         policies = [p.strip() for p in args.policies.split(",") if p.strip()]
-        study = make_study(args.scenario, policies, args.seeds, overrides)
+        study = make_study(
+            args.scenario, policies, seeds, overrides, args.zone_free, args.by_zone_kind
+        )
         tasks = study.tasks()
     except (ScenarioError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
@@ -545,7 +547,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "compare",
         help="compare policies over seeds on scenarios, resumable, and write report.md",
-        description="Run every policy on every scenario for seeds 1..N (stored runs are reused), "
+        description="Run every policy on every scenario for each seed (stored runs are reused), "
         "then write OUT/report.md: mean and 95%% confidence interval per metric, paired win "
         "counts, bands, box plots and snapshots (docs/compare.md).",
     )
@@ -556,7 +558,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated: failure_aware, vanilla, sog, a registered name or "
         "package.module:Class (default: failure_aware,vanilla)",
     )
-    p.add_argument("--seeds", type=int, default=5, help="seeds 1..N per policy (default: 5)")
+    p.add_argument(
+        "--seeds",
+        default="5",
+        help="N for seeds 1..N, A-B for seeds A..B, or a,b,c (default: 5)",
+    )
     p.add_argument(
         "--set",
         action="append",
@@ -564,6 +570,22 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PATH=VALUE",
         help="override a scenario field by dotted path, e.g. policy.failure_aware.eps1=0.05 "
         "(repeatable; applied to every scenario)",
+    )
+    p.add_argument(
+        "--zone-free",
+        nargs="?",
+        const="failure_aware",
+        default=None,
+        metavar="POLICY",
+        help="also run every scenario with its zones removed, same seeds, with POLICY (default: "
+        "failure_aware), and report each policy's last-third ratio: mean trace over the final "
+        "third of the episode divided by the zone-free run's",
+    )
+    p.add_argument(
+        "--by-zone-kind",
+        action="store_true",
+        help="report the first policy's win rates against each other one over the scenarios, "
+        "split by whether a scenario has a comm zone, with Wilson 95%% intervals",
     )
     p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
     _add_sweep_options(p)

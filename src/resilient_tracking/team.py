@@ -28,7 +28,7 @@ from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.build import make_policy, team_config
+from resilient_tracking.build import make_policy, team_config, zone_map
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.policies.base import Decision, Policy
@@ -106,14 +106,16 @@ class Team:
     ) -> Team:
         """A team for a scenario's robots and sensors, starting from the targets' means, an
         ``(N, 4)`` array ``[px, py, vx, vy]`` or ``(N, 2)`` positions (lists accepted), with the
-        scenario's declared initial uncertainty."""
+        scenario's declared initial uncertainty and the zones it marks ``known``."""
         means = _initial_means(initial_means, len(scenario.targets))
         spec = scenario.estimator
         config = team_config(scenario)
-        return cls(
+        team = cls(
             make_policy(policy or scenario.policy.name, scenario, config),
             TargetEstimate.initial(means, spec.initial_position_std, spec.initial_velocity_std),
         )
+        team.belief.map_zones(zone_map(scenario))
+        return team
 
     def step(self, obs: TeamObservation) -> TeamStep:
         """One tick: update belief with ``obs``, plan, return commands and every event."""

@@ -4,7 +4,8 @@ A zone estimate carries its kind, center mean and covariance, size (radius ``r``
 jamming strength ``δ2`` for comm), source and the step it was learned. Within a league the
 knowledge bases are merged every step: union by zone identity, and estimates without an
 identity (inferred from observation) merged with a known one of the same kind nearby. A
-provisional guess (``silence``: where a teammate fell silent) gives way to a better estimate.
+provisional guess (``silence``: where a teammate fell silent) gives way to a better estimate,
+and a zone of a hazard map (``broadcast`` before the first tick) to the clue of its attack.
 """
 
 from __future__ import annotations
@@ -40,9 +41,9 @@ class ZoneEstimate:
     clearance: float = 0.0
 
     @classmethod
-    def from_clue(cls, clue: ZoneClue, step: int) -> ZoneEstimate:
+    def from_clue(cls, clue: ZoneClue, step: int, source: Source = "attack") -> ZoneEstimate:
         """The estimate an attack clue gives: the zone's prior mean and covariance, its size and
-        persistence, learned at ``step``."""
+        persistence, learned at ``step`` (``source``: how it came, an attack by default)."""
         return cls(
             key=f"zone{clue.zone_id}",
             kind=clue.kind,
@@ -50,7 +51,7 @@ class ZoneEstimate:
             cov=np.asarray(clue.sigma, dtype=float),
             size=float(clue.size),
             persistence=clue.persistence,
-            source="attack",
+            source=source,
             learned_step=step,
             zone_id=clue.zone_id,
         )
@@ -84,8 +85,11 @@ class KnowledgeBase:
         return [z for k, z in sorted(self.zones.items()) if z.kind == kind]
 
     def learn(self, estimate: ZoneEstimate) -> bool:
-        """Add an estimate; returns whether anything new was learned."""
-        if estimate.key in self.zones:
+        """Add an estimate; returns whether anything new was learned. An attack clue replaces
+        the hazard map's estimate of the same zone: the robot now knows that zone struck it
+        (the zone a robot whose radio it destroyed circles, Alg. 4)."""
+        held = self.zones.get(estimate.key)
+        if held is not None and not (held.source == "broadcast" and estimate.source == "attack"):
             return False
         if estimate.zone_id is None:
             for key, known in list(self.zones.items()):

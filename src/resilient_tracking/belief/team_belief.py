@@ -2,7 +2,8 @@
 
 Each tick (docs/model.md §3–4):
 
-1. attack clues are learned by their victims (if the team learns zones at all);
+1. attack clues are learned by their victims (if the team learns zones at all), after the zones
+   of a hazard map given before the first tick (:meth:`TeamBelief.map_zones`);
 2. leagues are the connected components of the observed link graph;
 3. league estimates follow the robots: a league that gathers robots from several previous
    leagues fuses their estimates by covariance intersection, a league that split keeps a copy;
@@ -20,6 +21,7 @@ Each tick (docs/model.md §3–4):
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from dataclasses import replace
 from typing import Literal
 
@@ -71,6 +73,13 @@ class TeamBelief:
         self.last_step: int | None = None
         #: zone estimates learned this tick: (robot, estimate), for the knowledge table
         self.learned: list[tuple[int, ZoneEstimate]] = []
+        #: zones of a hazard map not yet learned (:meth:`map_zones`)
+        self._mapped: list[ZoneEstimate] = []
+
+    def map_zones(self, zones: Iterable[ZoneEstimate]) -> None:
+        """Zones the team knows before it starts (a hazard map): every robot learns them at the
+        next update, as if broadcast; a team that keeps no zone knowledge ignores them."""
+        self._mapped.extend(zones)
 
     # ------------------------------------------------------------------ tick
 
@@ -79,6 +88,12 @@ class TeamBelief:
         events: list[Event] = []
         self.learned = []
         self.sensing_ok = np.asarray(obs.sensing_ok, dtype=bool)
+        if self._mapped:
+            if self.learns_zones:
+                for zone in self._mapped:
+                    for robot in range(self.n_robots):
+                        self._learn(robot, replace(zone, learned_step=obs.step))
+            self._mapped = []
         if self.learns_zones:
             for attack in obs.attacks:
                 self._learn(attack.robot, ZoneEstimate.from_clue(attack.clue, obs.step))

@@ -2,8 +2,9 @@
 
 Each episode is reduced in memory to the row :func:`~resilient_tracking.experiments.summary.
 summarise_run` gives a stored run (time-averaged trace and MSE, attacks, survival, solver
-trouble), plus its scenario's name. ``tools/calibration_table.py`` and the paper-claims test
-use it; ``rtrack reproduce`` stores its runs and summarises them from disk instead.
+trouble), plus its scenario's name. The paper-claims and route-program tests use it;
+``rtrack compare`` and ``rtrack reproduce`` store their runs and summarise them from disk
+instead.
 """
 
 from __future__ import annotations

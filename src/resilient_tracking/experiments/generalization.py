@@ -8,6 +8,7 @@ same scenario and seed.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,15 +70,53 @@ def win_rate(
     return wilson(int((wide[policy] < wide[against]).sum()), len(wide))
 
 
-def nozone_ratios(summary: pd.DataFrame, policy: str = "failure_aware") -> pd.Series:
-    """Per scenario: last-third trace ÷ the same of its zone-free run (same policy, seed)."""
-    rows = summary[summary["policy"] == policy]
-    wide = rows.pivot_table(
-        index=["tag_scenario", "seed"], columns="tag_no_zones", values="last_third_trace"
-    )
-    if True not in wide or False not in wide:
+def nozone_ratios(
+    summary: pd.DataFrame, policy: str = "failure_aware", reference: str | None = None
+) -> pd.Series:
+    """Per scenario and seed: ``policy``'s last-third trace ÷ that of the zone-free run of
+    ``reference`` (default: the same policy) with the same seed."""
+    if "tag_no_zones" not in summary:
         return pd.Series(dtype=float)
-    return (wide[False] / wide[True]).dropna()
+    free = summary["tag_no_zones"].astype(bool)
+    index = ["tag_scenario", "seed"]
+    zoned = summary[~free & (summary["policy"] == policy)]
+    base = summary[free & (summary["policy"] == (reference or policy))]
+    ratios = (
+        zoned.groupby(index)["last_third_trace"].mean()
+        / base.groupby(index)["last_third_trace"].mean()
+    )
+    return ratios.dropna()
+
+
+def zone_kind(kinds: Iterable[str]) -> str:
+    """The kind of a scenario whose zones have ``kinds``: ``"with a comm zone"``, ``"sensing
+    zones only"`` or ``"no zones"``."""
+    kinds = list(kinds)
+    if "comm" in kinds:
+        return "with a comm zone"
+    return "sensing zones only" if kinds else "no zones"
+
+
+def win_rates_by_kind(
+    summary: pd.DataFrame,
+    kind_of: Mapping[str, str],
+    metric: str,
+    against: str = "vanilla",
+    policy: str = "failure_aware",
+) -> dict[str, Proportion]:
+    """Share of scenarios in which ``policy`` has the lower ``metric``, averaged over the seeds
+    both ran, than ``against``: over all scenarios (``"all"``) and per kind (``kind_of`` maps a
+    scenario's ``tag_scenario`` to its kind)."""
+    wide = paired(summary, metric, (policy, against))
+    if wide.empty:
+        return {"all": wilson(0, 0)}
+    means = wide.groupby(level="tag_scenario").mean()
+    won = means[policy] < means[against]
+    kinds = pd.Series([kind_of[str(name)] for name in won.index], index=won.index)
+    out = {"all": wilson(int(won.sum()), len(won))}
+    for kind in sorted(set(kinds)):
+        out[kind] = wilson(int(won[kinds == kind].sum()), int((kinds == kind).sum()))
+    return out
 
 
 def straggler_share(summary: pd.DataFrame, policy: str = "failure_aware") -> Proportion:

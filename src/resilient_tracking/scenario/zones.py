@@ -130,6 +130,13 @@ class ZoneBase(Strict):
         ),
         json_schema_extra={"unit": "Mahalanobis"},
     )
+    known: bool = Field(
+        False,
+        description=(
+            "A mapped hazard: the team holds the zone's prior (μ, Σ, size, persistence), what an "
+            "attack would reveal, from step 0 as if broadcast; never its true center."
+        ),
+    )
 
     _sigma_ok = field_validator("sigma")(_check_covariance)
 
@@ -144,6 +151,11 @@ class SensingZone(ZoneBase):
         description="Radius r of the zone's disk around its true center.",
         json_schema_extra={"unit": "m"},
     )
+
+    @property
+    def size(self) -> float:
+        """What an attack clue reports as the zone's size: the radius ``r``."""
+        return self.radius
 
 
 class CommZone(ZoneBase):
@@ -161,6 +173,11 @@ class CommZone(ZoneBase):
         ),
         json_schema_extra={"unit": "ratio"},
     )
+
+    @property
+    def size(self) -> float:
+        """What an attack clue reports as the zone's size: the jammer strength ``δ2``."""
+        return self.delta2
 
 
 Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]

@@ -18,7 +18,7 @@ import numpy as np
 
 from resilient_tracking import __version__
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.build import make_policy, team_config
+from resilient_tracking.build import make_policy, team_config, zone_map
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook, LeaguePlanner
@@ -59,11 +59,14 @@ def build_team(
     initial_targets: np.ndarray,
     fault_hook: FaultHook | None = None,
 ) -> Team:
-    """The team of an episode: policy, planner and the seeded prior around ``initial_targets``."""
+    """The team of an episode: policy, planner, the seeded prior around ``initial_targets`` and
+    the scenario's hazard map (:func:`~resilient_tracking.build.zone_map`)."""
     config = team_config(scenario)
     planner = LeaguePlanner.from_spec(scenario.planner, fault_hook=fault_hook)
     policy_obj = make_policy(policy_name, scenario, config, planner)
-    return Team(policy_obj, prior_estimate(scenario, initial_targets, seed))
+    team = Team(policy_obj, prior_estimate(scenario, initial_targets, seed))
+    team.belief.map_zones(zone_map(scenario))
+    return team
 
 
 class EpisodeRecorder:
@@ -238,21 +241,16 @@ def run_episode(
     seed: int | None = None,
     progress: Callable[[int], object] | None = None,
     fault_hook: FaultHook | None = None,
-    setup: Callable[[World, Team], object] | None = None,
 ) -> EpisodeResult:
     """Run one episode; ``progress`` is called with the number of steps done.
 
-    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`);
-    ``setup`` is called with the world and the team before the first step (a study may seed
-    the team's knowledge there, as ``tools/known_zones_reference.py`` does).
+    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`).
     """
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
     world = World(scenario, seed)
     team = build_team(scenario, policy_name, seed, world.target_states, fault_hook)
-    if setup is not None:
-        setup(world, team)
     recorder = EpisodeRecorder(world.n_robots, len(world.targets), world.zones, scenario.steps)
     for _ in range(scenario.steps):
         obs = world.observe()

@@ -33,7 +33,7 @@ class TrueZone:
         self.sigma = np.asarray(spec.sigma, dtype=float)
         self.center = rng.multivariate_normal(self.mu, self.sigma, method="cholesky")
         self.kind = spec.kind
-        self.size = spec.radius if isinstance(spec, SensingZone) else spec.delta2
+        self.size = spec.size
         self._sigma_inv = np.linalg.inv(self.sigma)
         self.hazard: HazardModel = HAZARDS.get(spec.hazard.model).from_zone(spec.hazard, self)
 
