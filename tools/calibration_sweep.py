@@ -26,9 +26,8 @@ from calibration_table import seed_range  # sibling script: tools/ is on sys.pat
 from joblib import Parallel, delayed
 
 from resilient_tracking import scenarios
-from resilient_tracking.experiments.catalog import set_path
 from resilient_tracking.experiments.compare import summarise
-from resilient_tracking.scenario import parse_scenario
+from resilient_tracking.scenario.overrides import apply_overrides
 
 SCENARIOS = scenarios.folder()
 
@@ -47,11 +46,12 @@ def main() -> None:
         overrides = json.loads(text)
         for name in args.scenarios.split(","):
             data = yaml.safe_load((SCENARIOS / f"{name}.yaml").read_text())
+            mine = {}
             for key, value in overrides.items():
                 scope, _, path = key.rpartition(":")
                 if scope in ("", name):
-                    set_path(data, path, value)
-            scenario = parse_scenario(data, f"{name} [{label}]")
+                    mine[path] = value
+            scenario = apply_overrides(data, mine, f"{name} [{label}]")
             for policy in ("vanilla", "failure_aware"):
                 tasks += [(label, scenario, policy, s) for s in seed_range(args.seeds)]
     rows = Parallel(n_jobs=args.jobs)(

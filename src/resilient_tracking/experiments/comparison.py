@@ -22,10 +22,11 @@ import yaml
 from scipy import stats
 
 from resilient_tracking import scenarios
-from resilient_tracking.experiments.catalog import Task, Variant, set_path
+from resilient_tracking.experiments.catalog import Task, Variant
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
-from resilient_tracking.scenario import Scenario, ScenarioError, parse_scenario
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.folders import write_text_atomic
 from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
@@ -62,10 +63,8 @@ class Study:
         out = []
         for label, scenario in self.scenarios.items():
             for policy in self.policies:
-                data = scenario.model_dump(mode="json")
-                data["policy"]["name"] = policy
                 variant = Variant(policy, policy, tags={"scenario": label})
-                base = parse_scenario(data, f"{label} [{policy}]")
+                base = overridden(scenario, {"policy.name": policy}, f"{label} [{policy}]")
                 out += [
                     Task(label, variant, seed, base.with_overrides(seed=seed))
                     for seed in self.seeds
@@ -82,22 +81,6 @@ def parse_override(text: str) -> tuple[str, object]:
         return path.strip(), yaml.safe_load(value)
     except yaml.YAMLError as err:
         raise ValueError(f"--set {path}: value is not valid YAML ({err})") from None
-
-
-def apply_overrides(scenario: Scenario, overrides: Sequence[tuple[str, object]]) -> Scenario:
-    """A validated copy of ``scenario`` with each dotted path set; a path that does not exist or
-    a value the schema refuses raises :class:`ScenarioError` naming the field."""
-    if not overrides:
-        return scenario
-    data = scenario.model_dump(mode="json")
-    for path, value in overrides:
-        try:
-            set_path(data, path, value)
-        except (IndexError, KeyError, TypeError):
-            raise ScenarioError(
-                scenario.name, [f"{path}: no such field to set (got {value!r})"]
-            ) from None
-    return parse_scenario(data, f"{scenario.name} (with --set)")
 
 
 def make_study(
@@ -124,7 +107,8 @@ def make_study(
         label = Path(arg).stem if Path(arg).suffix in (".yaml", ".yml") else str(arg)
         if label in loaded:
             label = f"{label}-{len(loaded) + 1}"
-        loaded[label] = apply_overrides(scenarios.load(arg), overrides)
+        scenario = scenarios.load(arg)
+        loaded[label] = overridden(scenario, dict(overrides), f"{scenario.name} (with --set)")
     return Study(
         loaded, tuple(dict.fromkeys(policies)), tuple(range(1, n_seeds + 1)), tuple(overrides)
     )

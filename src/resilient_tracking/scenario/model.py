@@ -115,9 +115,8 @@ class Scenario(Strict):
         return out
 
     def with_overrides(self, **changes: Any) -> Scenario:
-        """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…)."""
-        data = self.model_dump()
-        data.update(changes)
-        from resilient_tracking.scenario.loading import parse_scenario
+        """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…);
+        :func:`~.overrides.overridden` changes fields by dotted path."""
+        from resilient_tracking.scenario.overrides import overridden
 
-        return parse_scenario(data, f"{self.name} (overridden)")
+        return overridden(self, changes)
