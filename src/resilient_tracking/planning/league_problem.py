@@ -15,8 +15,10 @@ import casadi as ca
 import numpy as np
 
 from resilient_tracking.planning import codegen
+from resilient_tracking.planning.compile_jobs import CompiledFunctions
 from resilient_tracking.planning.compiled_call import BufferedCall, quiet_stdout
 from resilient_tracking.planning.layout import ParameterLayout, ProblemInputs, Slots, Structure
+from resilient_tracking.planning.library_index import module_digest
 from resilient_tracking.planning.nlp import LeagueNLP
 from resilient_tracking.planning.nlp_cache import count_solver_build, shared_nlp
 from resilient_tracking.planning.reduction import Reduction, reduce, reduced_slots
@@ -146,7 +148,7 @@ class LeagueProblem:
 
     # ------------------------------------------------------------------ solvers
 
-    def _job(self, method: str) -> codegen.CompiledFunctions | None:
+    def _job(self, method: str) -> CompiledFunctions | None:
         """The (shared) compile job of ``method``'s functions; None when codegen is off."""
         if not self.options.codegen:
             return None
@@ -159,7 +161,7 @@ class LeagueProblem:
             s = self.structure
             # what the functions are made of, to find their compiled library without codegen
             # (the sensor model may be a plug-in: its own source counts too)
-            sensor = codegen.module_digest(s.sensor_model)
+            sensor = module_digest(s.sensor_model)
             defines = (
                 repr((s, self.margin, nlp.slots, method, self._sqp_hessian, sensor))
                 if sensor is not None
@@ -175,7 +177,7 @@ class LeagueProblem:
             self._calls[method] = self._new_call(method, self._job(method))
         return self._calls[method]
 
-    def _new_call(self, method: str, job: codegen.CompiledFunctions | None) -> BufferedCall:
+    def _new_call(self, method: str, job: CompiledFunctions | None) -> BufferedCall:
         functions = self._functions(method)
         compiled = job is not None and job.ready()
         if compiled and job is not None:
