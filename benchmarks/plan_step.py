@@ -60,7 +60,7 @@ def evaluations(
     and, when the solver uses it, compiled."""
     reduction = problem.reduction(q)
     method = "sqp" if reduction is None else "sqp_slots"
-    fn = problem._nlp(method).functions
+    fn = problem.symbolic(method).functions
     p = problem.pack_params(q)
     x, lam_g = solution["x"], solution["lam_g"]
     if reduction is not None:

@@ -57,6 +57,8 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
     assert "resilient_tracking/scenarios/sensing-temp.yaml" in names
+    # compile jobs run this program by its file
+    assert "resilient_tracking/planning/compile_supervisor.py" in names
     venv = base / "venv"
     run_checked([sys.executable, "-m", "venv", str(venv)], cwd=base)
     bin_dir = venv / "bin"

@@ -16,7 +16,7 @@ from pathlib import Path
 import casadi as ca
 import pytest
 
-from resilient_tracking.planning import codegen
+from resilient_tracking.planning import codegen, compile_jobs, library_cache, library_index
 
 pytestmark = pytest.mark.skipif(
     not codegen.enabled(), reason="needs a C compiler and RTRACK_CODEGEN on"
@@ -30,7 +30,7 @@ def cache(tmp_path, monkeypatch):
     folder = tmp_path / "cache"
     monkeypatch.setenv("RTRACK_CACHE_DIR", str(folder))
     yield folder
-    codegen.stop_all()
+    compile_jobs.stop_all()
 
 
 @pytest.fixture
@@ -80,7 +80,7 @@ def test_a_compile_job_runs_under_the_cache_directory_and_stop_all_ends_it(
     assert len(builds) == 1 and (builds[0] / "t.c").exists()
     assert wait_until(lambda: len(processes_in(builds[0])) >= 2)  # the compiler and its child
     assert wait_until(lambda: any("sleep" in _cmd(p) for p in _children_of_tree(job)))
-    codegen.stop_all()
+    compile_jobs.stop_all()
     assert wait_until(lambda: not processes_in(builds[0]) and not builds[0].exists())
     assert not processes_in(slow_compiler)
     assert job.failed and not job.ready()
@@ -93,7 +93,7 @@ def _cmd(pid: int) -> str:
         return ""
 
 
-def _children_of_tree(job: codegen.CompiledFunctions) -> list[int]:
+def _children_of_tree(job: compile_jobs.CompiledFunctions) -> list[int]:
     assert job.process is not None
     root, tree = job.process.pid, []
     for name in os.listdir("/proc"):
@@ -142,9 +142,13 @@ def test_compiles_never_outnumber_the_cores(cache, slow_compiler):
     assert all(job is not None for job in jobs)
     assert wait_until(lambda: len(processes_in(slow_compiler)) >= cores)
     time.sleep(1.0)  # the extra job waits for a slot
-    compilers = [p for p in processes_in(slow_compiler) if "sleep" not in _cmd(p)]
+    compilers = [
+        p
+        for p in processes_in(slow_compiler)
+        if "sleep" not in _cmd(p) and "compile_supervisor" not in _cmd(p)
+    ]
     assert len(compilers) == cores
-    codegen.stop_all()
+    compile_jobs.stop_all()
     assert wait_until(lambda: not processes_in(slow_compiler))
     assert not list(cache.glob("build-*"))
 
@@ -153,7 +157,7 @@ def test_a_damaged_cached_library_is_rebuilt_once_with_one_warning(cache, caplog
     job = codegen.compile_functions(functions(), "dmg")
     assert job is not None and job.wait()
     library = job.library
-    assert Path(f"{library}.sha256").read_text().strip() == codegen._sha256(library)
+    assert Path(f"{library}.sha256").read_text().strip() == library_cache.sha256_of(library)
     library.write_bytes(library.read_bytes()[:200])  # truncated
     with caplog.at_level(logging.WARNING, logger=codegen.__name__):
         again = codegen.compile_functions(functions(), "dmg")
@@ -181,11 +185,11 @@ def test_a_cached_library_without_checksum_is_load_tested(cache):
     job = codegen.compile_functions(functions(), "old")
     assert job is not None and job.wait()
     Path(f"{job.library}.sha256").unlink()
-    assert codegen.damage_of(job.library, job.names) is None
+    assert library_cache.damage_of(job.library, job.names) is None
     assert Path(f"{job.library}.sha256").exists()  # recorded now
     Path(f"{job.library}.sha256").unlink()
     replace_with(job.library, b"\x7fELF truncated")
-    assert codegen.damage_of(job.library, job.names) == "does not load"
+    assert library_cache.damage_of(job.library, job.names) == "does not load"
 
 
 def test_the_cache_is_pruned_least_recently_used_first(tmp_path):
@@ -195,7 +199,7 @@ def test_the_cache_is_pruned_least_recently_used_first(tmp_path):
         path.write_bytes(b"x" * 1000)
         Path(f"{path}.sha256").write_text("0")
         os.utime(path, (now - 100 * age, now - 100 * age))
-    removed = codegen.prune_cache(tmp_path, keep=tmp_path / "oldest.so", limit=2000)
+    removed = library_cache.prune_cache(tmp_path, keep=tmp_path / "oldest.so", limit=2000)
     assert removed == 1
     assert sorted(p.name for p in tmp_path.glob("*.so")) == ["newest.so", "oldest.so"]
     assert not (tmp_path / "middle.so.sha256").exists()
@@ -207,7 +211,7 @@ def test_folders_of_dead_jobs_are_removed_and_live_ones_kept(tmp_path):
     (tmp_path / f"build-{dead.pid}-abc").mkdir()
     (tmp_path / f"build-{os.getpid()}-abc").mkdir()
     (tmp_path / "mine").mkdir()
-    assert codegen.clean_dead_builds(tmp_path) == 1
+    assert library_cache.clean_dead_builds(tmp_path) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == [f"build-{os.getpid()}-abc", "mine"]
 
 
@@ -227,8 +231,8 @@ def test_a_keyed_library_is_found_through_the_index_without_generating_code(cach
     assert codegen.compile_functions(functions(), "idx", key="structure B") is None
     Path(f"{job.library}.sha256").write_text("0\n")
     assert codegen.compile_functions(functions(), "idx", key="structure A") is None
-    Path(f"{job.library}.sha256").write_text(codegen._sha256(job.library) + "\n")
-    monkeypatch.setattr(codegen, "source_version", lambda: "edited sources")
+    Path(f"{job.library}.sha256").write_text(library_cache.sha256_of(job.library) + "\n")
+    monkeypatch.setattr(library_index, "source_version", lambda: "edited sources")
     assert codegen.compile_functions(functions(), "idx", key="structure A") is None
 
 
@@ -238,7 +242,24 @@ def test_a_plug_in_module_is_keyed_by_its_own_source(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
     import my_sensor
 
-    before = codegen.module_digest(my_sensor.Sensor)
+    before = library_index.module_digest(my_sensor.Sensor)
     module.write_text("class Sensor:\n    noise = 2\n")
-    assert before is not None and codegen.module_digest(my_sensor.Sensor) != before
-    assert codegen.module_digest(int) is None  # built in: no source, so no index
+    assert before is not None and library_index.module_digest(my_sensor.Sensor) != before
+    assert library_index.module_digest(int) is None  # built in: no source, so no index
+
+
+def test_the_supervisor_publishes_the_library_with_its_checksum_and_removes_its_folder(tmp_path):
+    work, slots = tmp_path / "build-1-x", tmp_path / "slots"
+    work.mkdir()
+    slots.mkdir()
+    library = tmp_path / "lib.so"
+    command = ["sh", "-c", f"printf built > {work / 'out.so'}"]
+    args = [str(os.getpid()), str(work), str(slots), "1", str(library), *command]
+    module = "resilient_tracking.planning.compile_supervisor"
+    done = subprocess.run([sys.executable, "-m", module, *args], timeout=60)
+    assert done.returncode == 0
+    assert library.read_bytes() == b"built" and not work.exists()
+    assert Path(f"{library}.sha256").read_text().strip() == library_cache.sha256_of(library)
+    work.mkdir()
+    failed = subprocess.run([sys.executable, "-m", module, *args[:5], "false"], timeout=60)
+    assert failed.returncode == 1 and not work.exists()

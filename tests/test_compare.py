@@ -12,7 +12,6 @@ from scipy import stats
 from helpers import shipped
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.comparison import (
-    apply_overrides,
     confidence_interval,
     describe_seeds,
     last_third_ratios,
@@ -23,6 +22,7 @@ from resilient_tracking.experiments.comparison import (
     wins,
 )
 from resilient_tracking.scenario import ScenarioError
+from resilient_tracking.scenario.overrides import overridden
 
 
 def test_override_values_are_read_as_yaml():
@@ -34,13 +34,13 @@ def test_override_values_are_read_as_yaml():
 
 def test_overrides_reach_the_scenario_and_bad_ones_name_the_field():
     scenario = shipped("sensing-temp")
-    changed = apply_overrides(scenario, [("policy.failure_aware.eps1", 0.05), ("steps", 20)])
+    changed = overridden(scenario, {"policy.failure_aware.eps1": 0.05, "steps": 20})
     assert changed.policy.params_for("failure_aware").eps1 == 0.05
     assert changed.steps == 20
     with pytest.raises(ScenarioError, match="policy.failure_aware.eps1"):
-        apply_overrides(scenario, [("policy.failure_aware.eps1", 0.9)])
+        overridden(scenario, {"policy.failure_aware.eps1": 0.9})
     with pytest.raises(ScenarioError, match="zones.7.mu"):
-        apply_overrides(scenario, [("zones.7.mu", [0, 0])])
+        overridden(scenario, {"zones.7.mu": [0, 0]})
 
 
 def test_seeds_are_a_count_a_range_or_a_list():

@@ -20,7 +20,9 @@ from resilient_tracking.scenario import (
     Scenario,
     ScenarioError,
     SensingZone,
+    apply_overrides,
     load_scenario,
+    overridden,
     parse_scenario,
 )
 
@@ -631,6 +633,49 @@ def test_problems_from_a_file_carry_its_path(tmp_path: Path) -> None:
         load_scenario(path)
     assert info.value.source == str(path)
     assert info.value.problems == ["dt: Input should be greater than or equal to 0.001 (got -0.5)"]
+
+
+# ------------------------------------------------------------------------------ overrides
+
+
+def test_dotted_overrides_set_nested_fields_and_list_items() -> None:
+    scenario = parse_scenario(valid_base())
+    changed = overridden(scenario, {"zones.0.radius": 0.75, "robots.1.u_max": 0.25, "steps": 9})
+    assert (changed.zones[0].radius, changed.robots[1].u_max, changed.steps) == (0.75, 0.25, 9)
+    assert scenario.zones[0].radius == 0.5  # the original is untouched
+    assert overridden(scenario, {}) is scenario
+
+
+def test_dotted_overrides_create_missing_sections() -> None:
+    data = valid_base()
+    scenario = apply_overrides(data, {"policy.failure_aware.eps1": 0.05}, "test.yaml")
+    assert scenario.policy.params_for("failure_aware").eps1 == 0.05
+
+
+def test_top_level_overrides_are_dotted_paths_of_one_step() -> None:
+    scenario = parse_scenario(valid_base())
+    assert scenario.with_overrides(seed=7, zones=[]) == overridden(
+        scenario, {"seed": 7, "zones": []}
+    )
+
+
+@pytest.mark.parametrize(
+    ("path", "value"),
+    [("zones.3.radius", 1.0), ("robots.first.u_max", 1.0), ("dt.value", 0.1)],
+)
+def test_an_override_that_cannot_be_set_names_its_path(path: str, value: Any) -> None:
+    with pytest.raises(ScenarioError) as info:
+        apply_overrides(valid_base(), {path: value}, "test.yaml")
+    assert info.value.source == "test.yaml"
+    assert info.value.problems == [f"{path}: no such field to set (got {value!r})"]
+
+
+def test_an_override_the_schema_refuses_names_its_path() -> None:
+    scenario = parse_scenario(valid_base())
+    with pytest.raises(ScenarioError) as info:
+        overridden(scenario, {"zones.0.radius": -1.0}, "with a bad radius")
+    assert info.value.source == "with a bad radius"
+    assert [p.split(":")[0] for p in info.value.problems] == ["zones.0.radius"]
 
 
 # ------------------------------------------------------------------------------ property

@@ -643,7 +643,7 @@ def main(argv: list[str] | None = None) -> int:
         with interrupts.catching():
             return int(args.func(args))
     except (KeyboardInterrupt, interrupts.Terminated) as stop:
-        # compile jobs are stopped at exit (planning.codegen); staging folders are removed
+        # compile jobs are stopped at exit (planning.compile_jobs); staging folders are removed
         interrupts.ignore_more()
         term = isinstance(stop, interrupts.Terminated)
         what = "terminated" if term else "interrupted"

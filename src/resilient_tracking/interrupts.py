@@ -68,9 +68,9 @@ def exit_now(code: int) -> None:
     """Exit with ``code`` once cleanup is done. A Ctrl-C that arrived while an extension module
     ran Python code is remembered by the interpreter, which would otherwise end the process by
     SIGINT instead of with ``code``."""
-    codegen = sys.modules.get("resilient_tracking.planning.codegen")
-    if codegen is not None:
-        codegen.stop_all()
+    compile_jobs = sys.modules.get("resilient_tracking.planning.compile_jobs")
+    if compile_jobs is not None:
+        compile_jobs.stop_all()
     logging.shutdown()
     sys.stdout.flush()
     sys.stderr.flush()

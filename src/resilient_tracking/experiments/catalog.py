@@ -24,7 +24,8 @@ import yaml
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.generator import stored_suite
-from resilient_tracking.scenario import Scenario, parse_scenario
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario.overrides import apply_overrides
 from resilient_tracking.sim.folders import folder_name
 
 
@@ -52,6 +53,17 @@ class Variant:
     n_targets: int | None = None
     #: free-form attributes used to group runs in figures and claims (risk level, team size)
     tags: Mapping[str, Any] = field(default_factory=dict)
+
+    def changes(self, data: Mapping[str, Any]) -> dict[str, Any]:
+        """Everything this arm changes in the scenario mapping ``data``, by dotted path: the
+        team and targets cut to size, the policy, then :attr:`overrides`."""
+        changes: dict[str, Any] = {}
+        if self.n_robots is not None:
+            changes["robots"] = data["robots"][: self.n_robots]
+        if self.n_targets is not None:
+            changes["targets"] = data["targets"][: self.n_targets]
+        changes["policy.name"] = self.policy
+        return {**changes, **self.overrides}
 
 
 @dataclass(frozen=True)
@@ -111,34 +123,13 @@ class Task:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def set_path(data: Any, path: str, value: Any) -> None:
-    """Set ``data[a][b][0]…`` from a dotted path ``a.b.0``, creating mappings on the way."""
-    keys = [int(k) if k.isdigit() else k for k in path.split(".")]
-    for key in keys[:-1]:
-        data = data.setdefault(key, {}) if isinstance(data, dict) else data[key]
-    data[keys[-1]] = value
-
-
 def scenario_for(
     experiment: Experiment, variant: Variant, scenario_dir: Path | None = None
 ) -> Scenario:
     """The validated scenario of one variant (raises ``ScenarioError`` naming the field)."""
     path = (scenario_dir or default_scenario_dir()) / f"{experiment.scenario}.yaml"
-    return apply_variant(
-        yaml.safe_load(path.read_text()), variant, f"{path.name} [{variant.label}]"
-    )
-
-
-def apply_variant(data: dict[str, Any], variant: Variant, source: str) -> Scenario:
-    """A scenario mapping changed as ``variant`` says, validated."""
-    if variant.n_robots is not None:
-        data["robots"] = data["robots"][: variant.n_robots]
-    if variant.n_targets is not None:
-        data["targets"] = data["targets"][: variant.n_targets]
-    data.setdefault("policy", {})["name"] = variant.policy
-    for key, value in variant.overrides.items():
-        set_path(data, key, value)
-    return parse_scenario(data, source)
+    data = yaml.safe_load(path.read_text())
+    return apply_overrides(data, variant.changes(data), f"{path.name} [{variant.label}]")
 
 
 def _pair(name: str, seeds: int) -> Experiment:
@@ -332,16 +323,18 @@ def select(names: Iterable[str], quick: bool = False) -> list[Experiment]:
     return [known[n] for n in names]
 
 
+def _generated_arm(scenario: Scenario, variant: Variant) -> Scenario:
+    data = scenario.model_dump(mode="json")
+    return apply_overrides(data, variant.changes(data), f"{scenario.name} [{variant.label}]")
+
+
 def tasks(
     experiment: Experiment, seeds: int | None = None, scenario_dir: Path | None = None
 ) -> list[Task]:
     """Every run of an experiment, validated before anything runs."""
     if experiment.generated is not None:
         arms = [
-            (
-                variant,
-                apply_variant(s.model_dump(mode="json"), variant, f"{s.name} [{variant.label}]"),
-            )
+            (variant, _generated_arm(s, variant))
             for s, variants in experiment.generated()
             for variant in variants
         ]

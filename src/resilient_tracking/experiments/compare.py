@@ -16,9 +16,9 @@ from typing import Any
 import pandas as pd
 from joblib import Parallel, delayed
 
-from resilient_tracking.experiments.catalog import set_path
 from resilient_tracking.experiments.summary import summarise_run
-from resilient_tracking.scenario import Scenario, load_scenario, parse_scenario
+from resilient_tracking.scenario import Scenario, load_scenario
+from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.viz.io import run_data
 
@@ -38,16 +38,7 @@ def compare(
 ) -> pd.DataFrame:
     """One row per (scenario, policy, seed); ``overrides`` change every scenario by dotted
     path (``{"planner.program": "one_step"}``)."""
-    scenarios = [_changed(load_scenario(p), overrides or {}) for p in scenario_paths]
+    scenarios = [overridden(load_scenario(p), overrides or {}) for p in scenario_paths]
     tasks = [(s, p, seed) for s in scenarios for p in policies for seed in seeds]
     rows = Parallel(n_jobs=jobs)(delayed(summarise)(*t) for t in tasks)
     return pd.DataFrame(rows)
-
-
-def _changed(scenario: Scenario, overrides: Mapping[str, Any]) -> Scenario:
-    if not overrides:
-        return scenario
-    data = scenario.model_dump(mode="python")
-    for path, value in overrides.items():
-        set_path(data, path, value)
-    return parse_scenario(data, f"{scenario.name} (overridden)")

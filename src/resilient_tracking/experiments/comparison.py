@@ -29,7 +29,7 @@ import yaml
 from scipy import stats
 
 from resilient_tracking import scenarios
-from resilient_tracking.experiments.catalog import Task, Variant, set_path
+from resilient_tracking.experiments.catalog import Task, Variant
 from resilient_tracking.experiments.generalization import (
     nozone_ratios,
     win_rates_by_kind,
@@ -37,7 +37,8 @@ from resilient_tracking.experiments.generalization import (
 )
 from resilient_tracking.experiments.summary import STRAGGLER_DISTANCE, summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
-from resilient_tracking.scenario import Scenario, ScenarioError, parse_scenario
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.folders import write_text_atomic
 from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
@@ -85,21 +86,18 @@ class Study:
         out = []
         for label, scenario in self.scenarios.items():
             for policy in self.policies:
-                data = scenario.model_dump(mode="json")
-                data["policy"]["name"] = policy
                 variant = Variant(policy, policy, tags={"scenario": label})
-                out += self._seeded(label, variant, parse_scenario(data, f"{label} [{policy}]"))
+                base = overridden(scenario, {"policy.name": policy}, f"{label} [{policy}]")
+                out += self._seeded(label, variant, base)
             if self.zone_free is not None:
-                data = scenario.model_dump(mode="json")
-                data["policy"]["name"] = self.zone_free
-                data["zones"] = []
                 variant = Variant(
                     self.zone_free + NOZONE,
                     self.zone_free,
                     tags={"scenario": label, "no_zones": True},
                 )
                 source = f"{label} [{variant.label}]"
-                out += self._seeded(label, variant, parse_scenario(data, source))
+                free = overridden(scenario, {"policy.name": self.zone_free, "zones": []}, source)
+                out += self._seeded(label, variant, free)
         return out
 
     def _seeded(self, label: str, variant: Variant, base: Scenario) -> list[Task]:
@@ -156,22 +154,6 @@ def parse_override(text: str) -> tuple[str, object]:
         raise ValueError(f"--set {path}: value is not valid YAML ({err})") from None
 
 
-def apply_overrides(scenario: Scenario, overrides: Sequence[tuple[str, object]]) -> Scenario:
-    """A validated copy of ``scenario`` with each dotted path set; a path that does not exist or
-    a value the schema refuses raises :class:`ScenarioError` naming the field."""
-    if not overrides:
-        return scenario
-    data = scenario.model_dump(mode="json")
-    for path, value in overrides:
-        try:
-            set_path(data, path, value)
-        except (IndexError, KeyError, TypeError):
-            raise ScenarioError(
-                scenario.name, [f"{path}: no such field to set (got {value!r})"]
-            ) from None
-    return parse_scenario(data, f"{scenario.name} (with --set)")
-
-
 def make_study(
     scenario_args: Sequence[str],
     policies: Sequence[str],
@@ -205,7 +187,8 @@ def make_study(
         label = Path(arg).stem if Path(arg).suffix in (".yaml", ".yml") else str(arg)
         if label in loaded:
             label = f"{label}-{len(loaded) + 1}"
-        loaded[label] = apply_overrides(scenarios.load(arg), overrides)
+        scenario = scenarios.load(arg)
+        loaded[label] = overridden(scenario, dict(overrides), f"{scenario.name} (with --set)")
     return Study(
         loaded,
         tuple(dict.fromkeys(policies)),

@@ -108,9 +108,9 @@ def _worker_setup(parent: int) -> None:
     def watch() -> None:
         while os.getppid() == parent:
             time.sleep(0.5)
-        from resilient_tracking.planning import codegen
+        from resilient_tracking.planning import compile_jobs
 
-        codegen.stop_all()
+        compile_jobs.stop_all()
         os._exit(1)
 
     threading.Thread(target=watch, name="watch-parent", daemon=True).start()

@@ -12,9 +12,14 @@ A map, in reading order:
   ``hessian`` — assembling and convexifying its Hessian;
 * ``reduction`` — the SQP's smaller problem with the same solutions for large leagues;
 * ``solver_options`` — solver settings and ``ProblemOptions``;
-* ``league_problem`` — ``LeagueProblem``: solvers for one structure and one solve;
-  ``compiled_call`` — the flat-buffer call of a solver; ``nlp_cache`` — problems shared
-  process-wide; ``codegen`` and ``cache`` — compiled code and the LRU cache;
+* ``league_problem`` — ``LeagueProblem``: solvers for one structure and one solve, on
+  ``compiled_problem`` — solvers per method on compiled code when it is ready (shared with the
+  SOG problem); ``compiled_call`` — the flat-buffer call of a solver; ``nlp_cache`` — problems
+  shared process-wide; ``cache`` — the LRU cache;
+* ``codegen`` — C code for a problem's functions, compiled in the background: the library
+  cache on disk (``library_cache``), its index by what defines the functions
+  (``library_index``), the compile jobs this process owns (``compile_jobs``) and the program
+  supervising one compile (``compile_supervisor``);
 * ``planner`` — the never-crashing solver ladder; ``safe_action`` — its last rung;
 * ``adaptation``, ``evasion`` — the failure-aware policy's weights and circling;
 * ``sog_problem`` — the SOG baseline's program and planner, ``sog_nlp`` — its symbolic problem

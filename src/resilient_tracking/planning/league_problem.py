@@ -7,34 +7,28 @@ full problem's layout, whichever problem (full or reduced) and solver (SQP or IP
 
 from __future__ import annotations
 
-import logging
 from dataclasses import astuple
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.planning import codegen
-from resilient_tracking.planning.compiled_call import BufferedCall, quiet_stdout
+from resilient_tracking.planning.compiled_problem import CompiledProblem
 from resilient_tracking.planning.layout import ParameterLayout, ProblemInputs, Slots, Structure
+from resilient_tracking.planning.library_index import module_digest
 from resilient_tracking.planning.nlp import LeagueNLP
-from resilient_tracking.planning.nlp_cache import count_solver_build, shared_nlp
+from resilient_tracking.planning.nlp_cache import shared_nlp
 from resilient_tracking.planning.reduction import Reduction, reduce, reduced_slots
 from resilient_tracking.planning.solver_options import (
     AUTO,
-    COMMON_OPTIONS,
-    IPOPT_OPTIONS,
     METHODS,
     REDUCE_FROM_ROWS,
     SLOTS,
-    SQP_OPTIONS,
     ProblemOptions,
 )
 
-log = logging.getLogger(__name__)
 
-
-class LeagueProblem:
+class LeagueProblem(CompiledProblem):
     """A league NLP for one :class:`Structure`; solve with :meth:`solve`.
 
     ``solver`` is the default method of :meth:`solve`: ``"ipopt"`` (interior point with the
@@ -58,9 +52,8 @@ class LeagueProblem:
     ):
         if solver not in METHODS:
             raise ValueError(f"solver: expected one of {METHODS}, got {solver!r}")
+        super().__init__(ProblemOptions.of(options), solver)
         self.structure = structure
-        self.default_method = solver
-        self.options = ProblemOptions.of(options)
         self.margin = float(self.options.margin)
         self.n_constraints = structure.n_constraints
         #: sizes of the SQP's reduced problem; None: the SQP always solves the full problem
@@ -69,17 +62,8 @@ class LeagueProblem:
             slots = SLOTS if structure.n_constraints >= REDUCE_FROM_ROWS else None
         assert slots is None or isinstance(slots, Slots)
         self.slots = reduced_slots(structure, slots)
-        self._calls: dict[str, BufferedCall] = {}
         self._nlps: dict[Slots | None, LeagueNLP] = {}
         self._lbg = np.zeros(self.n_constraints)
-
-    def solver(self, method: str | None = None) -> ca.Function:
-        """The CasADi solver of ``method`` (built on first use)."""
-        return self._call(method or self.default_method).solver
-
-    def compiled(self, method: str | None = None) -> bool:
-        """Whether ``method`` runs on compiled code."""
-        return self._call(method or self.default_method).compiled
 
     def prepare(self, methods: tuple[str, ...] = METHODS) -> None:
         """Build the symbolic problems and solvers of ``methods`` now rather than at the first
@@ -99,9 +83,7 @@ class LeagueProblem:
         if "sqp" in methods and self.slots:
             methods = (*methods, "sqp_slots")
         for method in methods:
-            job = self._job(method)
-            if job is not None and job.wait() and not self._call(method).compiled:
-                self._calls[method] = self._new_call(method, job)
+            self._switch_to_compiled(method)
 
     def _shared(self, slots: Slots | None) -> LeagueNLP:
         # held here once fetched: the shared cache may forget it while this problem lives
@@ -129,11 +111,14 @@ class LeagueProblem:
         """Size of the symbolic problems built for this problem so far (its cache weight)."""
         return sum(nlp.n_instructions for nlp in self._nlps.values())
 
-    def _nlp(self, method: str) -> LeagueNLP:
+    def symbolic(self, method: str) -> LeagueNLP:
+        """The reduced problem for ``"sqp_slots"``, else the full problem."""
         return self.slot_nlp if method == "sqp_slots" else self.nlp
 
-    def _functions(self, method: str) -> dict[str, ca.Function]:
-        fn = self._nlp(method).functions
+    def roles(self, method: str) -> dict[str, ca.Function]:
+        """IPOPT's derivatives with the exact Hessian, or the SQP's ``fg``, ``jac_fg`` and its
+        chosen Hessian (:attr:`~.solver_options.ProblemOptions.sqp_hessian`)."""
+        fn = self.symbolic(method).functions
         if method == "ipopt":
             keys = {"grad_f": "grad_f", "jac_g": "jac_g", "hess_lag": "hess_exact_triu"}
         else:
@@ -146,66 +131,32 @@ class LeagueProblem:
 
     # ------------------------------------------------------------------ solvers
 
-    def _job(self, method: str) -> codegen.CompiledFunctions | None:
-        """The (shared) compile job of ``method``'s functions; None when codegen is off."""
-        if not self.options.codegen:
-            return None
+    def compile_label(self, method: str) -> tuple[tuple[str, str], str, str | None]:
+        """Jobs by (method, SQP Hessian), the reduced problem's named by its slots; the key is
+        what the functions are made of (the sensor model may be a plug-in: its own source
+        counts too), so the library is found without generating code."""
         name = method
         if method == "sqp_slots" and self.slots:
             name = "sqp_slots{}s{}c{}m".format(*astuple(self.slots))
-        nlp = self._nlp(method)
-        key = (name, self._sqp_hessian)
-        if key not in nlp.jobs:
-            s = self.structure
-            # what the functions are made of, to find their compiled library without codegen
-            # (the sensor model may be a plug-in: its own source counts too)
-            sensor = codegen.module_digest(s.sensor_model)
-            defines = (
-                repr((s, self.margin, nlp.slots, method, self._sqp_hessian, sensor))
-                if sensor is not None
-                else None
-            )
-            nlp.jobs[key] = codegen.compile_functions(
-                self._functions(method), f"{s.label}_{name}", defines
-            )
-        return nlp.jobs[key]
-
-    def _call(self, method: str) -> BufferedCall:
-        if method not in self._calls:
-            self._calls[method] = self._new_call(method, self._job(method))
-        return self._calls[method]
-
-    def _new_call(self, method: str, job: codegen.CompiledFunctions | None) -> BufferedCall:
-        functions = self._functions(method)
-        compiled = job is not None and job.ready()
-        if compiled and job is not None:
-            try:
-                functions = job.load()
-            except RuntimeError as err:  # a broken library: stay on the virtual machine
-                log.warning("loading %s failed: %s", job.library, err)
-                job.failed, compiled = True, False
-        nlp = self._nlp(method)
-        solver = self._build(method, functions, compiled)
-        count_solver_build()
-        call = BufferedCall(solver, nlp.n_vars, nlp.n_params, nlp.n_constraints)
-        call.compiled = compiled
-        return call
+        s = self.structure
+        sensor = module_digest(s.sensor_model)
+        defines = (
+            repr((s, self.margin, self.symbolic(method).slots, method, self._sqp_hessian, sensor))
+            if sensor is not None
+            else None
+        )
+        return (name, self._sqp_hessian), f"{s.label}_{name}", defines
 
     def _build(
         self, method: str, functions: dict[str, ca.Function], compiled: bool = False
     ) -> ca.Function:
         if method not in (*METHODS, "sqp_slots"):
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
-        s = self.structure
-        name = f"{s.label}_{method}"
-        opts: dict[str, Any] = dict(COMMON_OPTIONS)
+        name = f"{self.structure.label}_{method}"
         # f and g symbolic: CasADi derives its own helpers (never called here) from them
-        nlp: Any = self._nlp(method).nlp
+        nlp: Any = self.symbolic(method).nlp
         if method == "ipopt":
-            opts.update(functions, ipopt={**IPOPT_OPTIONS, **self.options.ipopt})
-            return ca.nlpsol(name, "ipopt", nlp, opts)
-        opts.update(SQP_OPTIONS)
-        opts.update(self.options.sqp)
+            return self._nlpsol(name, "ipopt", nlp, functions)
         # f and g (line search, convergence test) on compiled code too when there is some; the
         # reduced problem keeps them on the virtual machine, where its published results were
         # made (compiled code may round differently and tip a line-search decision)
@@ -213,13 +164,7 @@ class LeagueProblem:
         fg = functions.pop("fg")
         if compiled and method != "sqp_slots":
             nlp = fg
-        opts.update(
-            functions,
-            qpsol=self.options.qpsol,
-            qpsol_options=self.options.qpsol_options(),
-        )
-        with quiet_stdout():  # qpOASES prints a licence banner when its memory is set up
-            return ca.nlpsol(name, "sqpmethod", nlp, opts)
+        return self._nlpsol(name, "sqp", nlp, functions)
 
     # ------------------------------------------------------------------ one step
 
@@ -259,11 +204,7 @@ class LeagueProblem:
         """
         method = method or self.default_method
         lbx, ubx = self.bounds(q)
-        if warm is not None:
-            x0, lam_x0, lam_g0 = np.clip(warm["x"], lbx, ubx), warm["lam_x"], warm["lam_g"]
-        else:
-            x0 = np.clip(np.zeros(self.structure.n_vars), lbx, ubx)
-            lam_x0, lam_g0 = np.zeros(self.structure.n_vars), np.zeros(self.n_constraints)
+        x0, lam_x0, lam_g0 = self.start_point(warm, lbx, ubx, self.n_constraints)
         reduction = self.reduction(q) if method == "sqp" else None
         if reduction is None:
             call = self._call(method)

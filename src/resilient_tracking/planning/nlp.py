@@ -41,7 +41,7 @@ from typing import Any
 
 import casadi as ca
 
-from resilient_tracking.planning import codegen
+from resilient_tracking.planning.compile_jobs import CompiledFunctions
 from resilient_tracking.planning.hessian import assemble, psd_clip, sym2
 from resilient_tracking.planning.layout import (
     CommRow,
@@ -399,4 +399,4 @@ class LeagueNLP:
         #: size of the symbolic code (≈ 40 bytes of memory per instruction): the cache's weight
         self.n_instructions = sum(fn.n_instructions() for fn in self.functions.values())
         #: compile jobs of this problem's functions, by (method, SQP Hessian)
-        self.jobs: dict[tuple[str, str], codegen.CompiledFunctions | None] = {}
+        self.jobs: dict[tuple[str, str], CompiledFunctions | None] = {}

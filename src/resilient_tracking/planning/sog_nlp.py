@@ -20,8 +20,8 @@ from typing import Any
 
 import casadi as ca
 
-from resilient_tracking.planning import codegen
 from resilient_tracking.planning.cache import LruCache
+from resilient_tracking.planning.compile_jobs import CompiledFunctions
 from resilient_tracking.planning.hessian import psd_clip
 from resilient_tracking.planning.nlp import SLACK_CURVATURE
 from resilient_tracking.planning.pieces import trace_of_inverse
@@ -121,8 +121,9 @@ class SogNLP:
             ),
         }
         self.nlp = {"x": x, "p": p, "f": f, "g": g_vec}
-        #: compile jobs of this problem's functions, by method (None: codegen is off)
-        self.jobs: dict[str, codegen.CompiledFunctions | None] = {}
+        #: compile jobs of this problem's functions, by method (None: codegen is off), started
+        #: by :class:`~.sog_problem.SogProblem`
+        self.jobs: dict[str, CompiledFunctions | None] = {}
 
     def roles(self, method: str) -> dict[str, ca.Function]:
         """The functions a solver of ``method`` (``"sqp"`` or ``"ipopt"``) is given, by the
@@ -131,16 +132,6 @@ class SogNLP:
         if method == "ipopt":
             return {"grad_f": fn["grad_f"], "jac_g": fn["jac_g"], "hess_lag": fn["hess_exact_triu"]}
         return {"jac_fg": fn["jac_fg"], "hess_lag": fn["hess_clip"]}
-
-    def job(self, method: str) -> codegen.CompiledFunctions | None:
-        """The (shared) compile job of ``method``'s functions (started on first use)."""
-        if method not in self.jobs:
-            s = self.structure
-            label = (
-                f"sog_{s.n_robots}x{s.n_targets}_{s.n_zones}z_{s.sensor_model.__name__}_{method}"
-            )
-            self.jobs[method] = codegen.compile_functions(self.roles(method), label)
-        return self.jobs[method]
 
 
 #: symbolic SOG problems shared by every planner of this process (small: a few dozen at most)

@@ -35,21 +35,15 @@ import casadi as ca
 import numpy as np
 
 from resilient_tracking.models.sensor import MeasurementModel, RangeBearingSensor
-from resilient_tracking.planning.compiled_call import BufferedCall, quiet_stdout
-from resilient_tracking.planning.nlp_cache import count_solver_build
+from resilient_tracking.planning.compiled_problem import CompiledProblem
 from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
 from resilient_tracking.planning.sog_nlp import (
     ZONE_COLUMNS,
+    SogNLP,
     phi_expr,
     shared_sog_nlp,
 )
-from resilient_tracking.planning.solver_options import (
-    COMMON_OPTIONS,
-    IPOPT_OPTIONS,
-    METHODS,
-    SQP_OPTIONS,
-    ProblemOptions,
-)
+from resilient_tracking.planning.solver_options import METHODS, ProblemOptions
 
 log = logging.getLogger(__name__)
 
@@ -178,56 +172,38 @@ class SogInputs:
     sensor_model: type[MeasurementModel] = RangeBearingSensor
 
 
-class SogProblem:
+class SogProblem(CompiledProblem):
     """The SOG program of one :class:`SogStructure` ready to solve with :meth:`solve`: the
     shared symbolic problem (:class:`~.sog_nlp.SogNLP`) with this planner's own solvers
     (qpOASES keeps state between solves, so solvers are never shared between episodes)."""
 
     def __init__(self, structure: SogStructure, options: ProblemOptions | None = None):
+        super().__init__(options or ProblemOptions(), "ipopt")
         self.structure = structure
-        self.options = options or ProblemOptions()
         self.nlp = shared_sog_nlp(structure)
         self.n_constraints = self.nlp.n_constraints
-        self._calls: dict[str, BufferedCall] = {}
         self._lbg = np.zeros(self.n_constraints)
 
-    def _call(self, method: str) -> BufferedCall:
-        if method not in self._calls:
-            self._calls[method] = self._new_call(method)
-        return self._calls[method]
+    def symbolic(self, method: str) -> SogNLP:
+        """The one symbolic problem every method solves."""
+        return self.nlp
 
-    def compiled(self, method: str) -> bool:
-        """Whether the solver of ``method`` runs on compiled code."""
-        return self._call(method).compiled
-
-    def _new_call(self, method: str) -> BufferedCall:
+    def roles(self, method: str) -> dict[str, ca.Function]:
+        """The functions of :meth:`~.sog_nlp.SogNLP.roles`."""
         if method not in METHODS:
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
-        functions = self.nlp.roles(method)
-        job = self.nlp.job(method) if self.options.codegen else None
-        compiled = job is not None and job.ready()
-        if compiled and job is not None:
-            try:
-                functions = job.load()
-            except RuntimeError as err:  # a broken library: stay on the virtual machine
-                log.warning("loading %s failed: %s", job.library, err)
-                job.failed, compiled = True, False
+        return self.nlp.roles(method)
+
+    def compile_label(self, method: str) -> tuple[str, str, None]:
+        """Jobs by method, labelled by the sizes and the sensor model (no index key)."""
+        s = self.structure
+        label = f"sog_{s.n_robots}x{s.n_targets}_{s.n_zones}z_{s.sensor_model.__name__}_{method}"
+        return method, label, None
+
+    def _build(self, method: str, functions: dict[str, ca.Function], compiled: bool) -> Any:
         s = self.structure
         name = f"sog_{s.n_robots}x{s.n_targets}_{s.n_zones}z_{method}"
-        opts: dict[str, Any] = {**COMMON_OPTIONS, **functions}
-        if method == "ipopt":
-            opts["ipopt"] = {**IPOPT_OPTIONS, **self.options.ipopt}
-            solver = ca.nlpsol(name, "ipopt", self.nlp.nlp, opts)
-        else:
-            opts.update(SQP_OPTIONS)
-            opts.update(self.options.sqp)
-            opts.update(qpsol=self.options.qpsol, qpsol_options=self.options.qpsol_options())
-            with quiet_stdout():  # qpOASES prints a licence banner when its memory is set up
-                solver = ca.nlpsol(name, "sqpmethod", self.nlp.nlp, opts)
-        count_solver_build()
-        call = BufferedCall(solver, self.nlp.n_vars, self.nlp.n_params, self.n_constraints)
-        call.compiled = compiled
-        return call
+        return self._nlpsol(name, method, self.nlp.nlp, functions)
 
     def pack_params(self, q: SogInputs) -> np.ndarray:
         """The parameter vector of one solve, in the order :class:`SogNLP` declares it: positions,
@@ -276,13 +252,8 @@ class SogProblem:
         (a previous solution: primal and dual start) or from zero; returns (solution with x,
         lam_x, lam_g, f; solver stats)."""
         lbx, ubx = self.bounds(q)
-        n_vars = self.structure.n_vars
-        if warm is not None:
-            x0, lam_x0, lam_g0 = np.clip(warm["x"], lbx, ubx), warm["lam_x"], warm["lam_g"]
-        else:
-            x0 = np.clip(np.zeros(n_vars), lbx, ubx)
-            lam_x0, lam_g0 = np.zeros(n_vars), np.zeros(self.n_constraints)
-        call = self._call(method or "ipopt")
+        x0, lam_x0, lam_g0 = self.start_point(warm, lbx, ubx, self.n_constraints)
+        call = self._call(method or self.default_method)
         solution = call(x0, self.pack_params(q), lbx, ubx, lam_x0, lam_g0, self._lbg)
         return solution, call.stats()
 

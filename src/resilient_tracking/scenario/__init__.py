@@ -9,7 +9,8 @@ A scenario is a YAML mapping validated by pydantic models, one module per part o
   :mod:`~resilient_tracking.planning.spec`;
 - :mod:`~.model`: the whole :class:`Scenario` with its cross-field checks;
 - :mod:`~.loading`: ``load_scenario`` returns a :class:`Scenario` or raises
-  :class:`ScenarioError` listing every problem as ``field.path: message (got value)``.
+  :class:`ScenarioError` listing every problem as ``field.path: message (got value)``;
+- :mod:`~.overrides`: changing fields by dotted path (``{"zones.0.hazard.kappa": 2.0}``).
 
 The format is documented in ``docs/scenario-format.md``; everything is importable from here.
 """
@@ -49,6 +50,7 @@ from resilient_tracking.scenario.loading import (
 from resilient_tracking.scenario.model import (
     Scenario,
 )
+from resilient_tracking.scenario.overrides import apply_overrides, overridden
 from resilient_tracking.scenario.policies import PolicySpec
 from resilient_tracking.scenario.world_specs import (
     Circle,
@@ -122,4 +124,6 @@ __all__ = [
     "ScenarioError",
     "parse_scenario",
     "load_scenario",
+    "apply_overrides",
+    "overridden",
 ]

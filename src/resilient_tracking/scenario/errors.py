@@ -23,7 +23,7 @@ _REPR.maxlevel, _REPR.maxlist, _REPR.maxdict = 3, 8, 8
 _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 60, 60, 40
 
 
-def _short(value: Any, limit: int = 80) -> str:
+def short_repr(value: Any, limit: int = 80) -> str:
     """A bounded ``repr``: never renders more than a few items of a large input."""
     text = _REPR.repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -66,10 +66,10 @@ def field_problems(err: ValidationError, data: Any) -> list[str]:
         key = loc[-1] if loc else None
         if e["type"] == "extra_forbidden" and not (isinstance(key, str) and key.isidentifier()):
             # a key that cannot be part of a dotted path: name its mapping, then the key
-            path, msg = _field_path(loc[:-1], data), f"unknown key {_short(loc[-1], 40)}"
-            out.append(f"{path}: {msg} (got {_short(e.get('input'))})")
+            path, msg = _field_path(loc[:-1], data), f"unknown key {short_repr(loc[-1], 40)}"
+            out.append(f"{path}: {msg} (got {short_repr(e.get('input'))})")
             continue
         path = _field_path(loc, data)
         msg = e["msg"].removeprefix("Value error, ")
-        out.append(f"{path}: {msg} (got {_short(e.get('input'))})")
+        out.append(f"{path}: {msg} (got {short_repr(e.get('input'))})")
     return out

@@ -24,6 +24,7 @@ from resilient_tracking.scenario.base import (
     Strict,
 )
 from resilient_tracking.scenario.errors import ScenarioError, field_problems
+from resilient_tracking.scenario.paths import set_paths
 from resilient_tracking.scenario.policies import PolicySpec
 from resilient_tracking.scenario.world_specs import (
     Circle,
@@ -133,7 +134,8 @@ class Scenario(Strict):
         return scenario
 
     def with_overrides(self, **changes: Any) -> Scenario:
-        """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…)."""
+        """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…);
+        :func:`~.overrides.overridden` changes fields by dotted path."""
         data = self.model_dump()
-        data.update(changes)
+        set_paths(data, changes, f"{self.name} (overridden)")
         return Scenario.parse(data, f"{self.name} (overridden)")
