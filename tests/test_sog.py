@@ -31,9 +31,9 @@ from resilient_tracking.planning.sog_problem import (
 )
 from resilient_tracking.policies import SogPolicy, make_policy
 from resilient_tracking.policies.sog import abundance_weights
+from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import POLICY_NAMES, SogParams, parse_scenario
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import TABLES
 from resilient_tracking.team import Team
 from resilient_tracking.team_config import TeamConfig
 from resilient_tracking.world.zones import GaussianHazardModel
@@ -284,7 +284,7 @@ def test_a_sog_episode_is_reproducible_bit_for_bit():
     s = shipped("sensing-perm").with_overrides(steps=130)
     a, b = (run_episode(s, policy="sog", seed=1) for _ in range(2))
     assert (a["events"].event == "attack").any()  # knowledge and the zone term are exercised
-    for table in TABLES:
+    for table in REPRODUCIBLE:
         pd.testing.assert_frame_equal(a[table], b[table], check_exact=True)
 
 

@@ -60,7 +60,7 @@ _PUBLIC = {
     "UnknownName": "resilient_tracking.registry",
     # running episodes
     "run_episode": "resilient_tracking.sim.episode",
-    "EpisodeResult": "resilient_tracking.sim.records",
+    "EpisodeResult": "resilient_tracking.runs.records",
 }
 
 __all__ = [
@@ -129,6 +129,7 @@ if TYPE_CHECKING:
     from resilient_tracking.policies.planning_helpers import PlanningPolicy
     from resilient_tracking.policy_check import PolicyReport, check_policy
     from resilient_tracking.registry import UnknownName
+    from resilient_tracking.runs.records import EpisodeResult
     from resilient_tracking.scenario import (
         HazardSpec,
         MotionSpec,
@@ -138,7 +139,6 @@ if TYPE_CHECKING:
         parse_scenario,
     )
     from resilient_tracking.sim.episode import run_episode
-    from resilient_tracking.sim.records import EpisodeResult
     from resilient_tracking.team import Team, TeamStep
     from resilient_tracking.team_config import TeamConfig
     from resilient_tracking.world.hazard_model import HAZARDS, HazardModel

@@ -111,21 +111,22 @@ class Team:
                 f"got {obs.n_targets}"
             )
         events = [
-            Event(
+            Event.attack(
                 obs.step,
                 a.robot,
-                "attack",
-                f"{a.clue.kind} zone{a.clue.zone_id} "
-                f"{'temporary' if a.cause == 'jamming' else a.clue.persistence} ({a.cause})",
+                a.clue.kind,
+                a.clue.zone_id,
+                "temporary" if a.cause == "jamming" else a.clue.persistence,
+                a.cause,
             )
             for a in obs.attacks
         ]
-        events += [Event(obs.step, robot, "recover", kind) for robot, kind in obs.recoveries]
+        events += [Event.recover(obs.step, robot, kind) for robot, kind in obs.recoveries]
         events += self.belief.update(obs)
         decision = self.policy.act(self.belief, obs)
         events += decision.events
         events += [
-            Event(obs.step, robot, "zone_learned", f"{z.key} {z.kind} via {z.source}")
+            Event.zone_learned(obs.step, robot, z.key, z.kind, z.source, z.zone_id, z.persistence)
             for robot, z in self.belief.learned
         ]
         return TeamStep(controls=decision.controls, decision=decision, events=events)

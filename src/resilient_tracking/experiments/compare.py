@@ -17,9 +17,9 @@ from joblib import Parallel, delayed
 
 from resilient_tracking.experiments.catalog import set_path
 from resilient_tracking.experiments.summary import summarise_run
+from resilient_tracking.runs.reading import run_data
 from resilient_tracking.scenario import Scenario, load_scenario, parse_scenario
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.viz.io import run_data
 
 
 def summarise(scenario: Scenario, policy: str, seed: int) -> dict[str, Any]:

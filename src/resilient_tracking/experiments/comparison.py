@@ -25,9 +25,9 @@ from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import Task, Variant, set_path
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
+from resilient_tracking.runs.folders import write_text_atomic
+from resilient_tracking.runs.reading import RunData, load_run
 from resilient_tracking.scenario import Scenario, ScenarioError, parse_scenario
-from resilient_tracking.sim.folders import write_text_atomic
-from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
     BAND_METRICS,
     EFFORT_METRIC,
