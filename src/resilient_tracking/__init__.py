@@ -1,7 +1,8 @@
 """Failure-aware multi-robot target tracking (Li, Liu, Wu, Zhou).
 
 Layout: ``world`` holds truth, ``belief`` what the robots know, ``planning`` and ``policies``
-decide from belief only, ``sim`` runs episodes and records them, ``viz`` plots saved data.
+decide from belief only, ``sim`` runs episodes, ``runs`` declares, records, writes and reads
+their tables, ``viz`` plots saved data.
 
 What a user needs is importable from here (loaded on first use, so ``import
 resilient_tracking`` stays light)::

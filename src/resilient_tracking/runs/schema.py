@@ -104,7 +104,9 @@ TEAM = Table(
     (
         _STEP,
         _c("time", "float64", "s", "time of the step"),
-        _c("mse", "float64", "m²", "(1/N) Σ_j ‖ŷ_j − y_j‖², team estimate against truth", "truth"),
+        _c(
+            "mse", "float64", "m²", "(1/N) Σ_j ‖ŷ_j − y_j‖² of the team estimate, vs truth", "truth"
+        ),
         _c("trace", "float64", "m²", "Σ_j tr P_j of the team estimate's position blocks"),
         _c("effort", "float64", "m/s", "Σ_i ‖u_i‖ of the applied velocities"),
         _c("n_sensing_failed", "int64", "", "robots whose sensor is down"),
@@ -114,7 +116,6 @@ TEAM = Table(
         _c("n_solver_failures", "int64", "", "plans that did not succeed"),
         _c("solver_iterations", "int64", "", "solver iterations summed over the plans"),
     ),
-    note="the team estimate is the league with most sensing robots",
 )
 
 TIMING = Table(
