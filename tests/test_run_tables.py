@@ -85,3 +85,19 @@ def test_attack_events_carry_their_facts_as_columns(recorded):
         assert row.detail == f"{row.kind} zone{row.zone} {row.persistence} ({row.cause})"
     others = recorded["events"].query("event != 'attack'")
     assert (others["cause"] == "").all()
+
+
+def test_robots_lost_counts_permanent_attacks_from_the_typed_columns():
+    from resilient_tracking.experiments.summary import robots_lost
+
+    events = pd.DataFrame(
+        [
+            Event.attack(3, 0, "sensing", 1, "permanent", "hazard"),
+            Event.attack(4, 1, "comm", 2, "temporary", "jamming"),
+            Event.attack(5, 0, "comm", 2, "permanent", "hazard"),
+            Event.zone_learned(5, 2, "zone2", "comm", "broadcast", 2, "permanent"),
+        ]
+    )
+    assert robots_lost(events) == 1
+    assert robots_lost(events.assign(detail="")) == 1  # the text is not read
+    assert robots_lost(events.assign(persistence="permanent")) == 2

@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def closer_to_known_zone(result) -> int:
     """Safe-action steps after which the robot was closer to a zone it knew (should be 0)."""
     events, robots, knowledge = result["events"], result["robots"], result["knowledge"]
-    safe = events[(events["event"] == "solver_fallback") & events["detail"].str.startswith("safe")]
+    safe = events[(events["event"] == "solver_fallback") & (events["fallback"] == "safe")]
     pos = robots.set_index(["step", "robot"])[["x", "y"]]
     bad = 0
     for step, robot in safe[["step", "robot"]].itertuples(index=False):
@@ -72,15 +72,15 @@ def main(argv: list[str] | None = None) -> int:
                     failed += 1
                     continue
                 events = result["events"]
-                fb = events[events["event"] == "solver_fallback"]["detail"]
+                fb = events[events["event"] == "solver_fallback"]
                 row = {
                     "scenario": name,
                     "policy": policy,
                     "seed": seed,
                     **{k: v for k, v in injector.summary().items()},
-                    "retry_ok": int((~fb.str.startswith("safe")).sum()),
-                    "safe_escape": int(fb.str.startswith("safe (escape)").sum()),
-                    "safe_hold": int(fb.str.startswith("safe (hold)").sum()),
+                    "retry_ok": int((fb["fallback"] != "safe").sum()),
+                    "safe_escape": int((fb["action"] == "escape").sum()),
+                    "safe_hold": int((fb["action"] == "hold").sum()),
                     "non_finite": sum(non_finite_cells(result).values()),
                     "closer": closer_to_known_zone(result),
                 }
