@@ -34,9 +34,11 @@ PARTS = ("observe", "belief", "policy", "planning", "world", "records")
 def measure(name: str, policy: str, seed: int) -> dict[str, float]:
     """One episode, timed part by part (ms per step); the loop of ``run_episode``."""
     from resilient_tracking import scenarios
+    from resilient_tracking.runs.records import join_tables
+    from resilient_tracking.runs.team_recorder import TeamRecorder
+    from resilient_tracking.runs.truth_recorder import TruthRecorder
     from resilient_tracking.scenario import load_scenario
-    from resilient_tracking.sim.episode import EpisodeRecorder, build_team
-    from resilient_tracking.team import TeamStep
+    from resilient_tracking.team import TeamStep, build_team
     from resilient_tracking.world import World
 
     scenario = load_scenario(scenarios.folder() / f"{name}.yaml")
@@ -49,7 +51,8 @@ def measure(name: str, policy: str, seed: int) -> dict[str, float]:
     start = clock()
     world = World(scenario, seed)
     team = build_team(scenario, policy, seed, world.target_states)
-    recorder = EpisodeRecorder(world.n_robots, len(world.targets), world.zones, scenario.steps)
+    team_rows = TeamRecorder(world.n_robots, len(world.targets), scenario.steps)
+    truth_rows = TruthRecorder(len(world.targets), scenario.steps, world.zones)
     for _ in range(scenario.steps):
         a = clock()
         obs = world.observe()
@@ -62,7 +65,8 @@ def measure(name: str, policy: str, seed: int) -> dict[str, float]:
         out = TeamStep(decision.controls, decision, events + decision.events)
         applied = world.step(out.controls)
         e = clock()
-        recorder.step(obs, out, applied, truth, team)
+        team_rows.step(obs, out, applied, team.belief)
+        truth_rows.step(obs.step, truth[:, :2], team.belief.team_estimate().mean[:, :2])
         f = clock()
         plan = decision.plan_ms / 1e3
         for part, seconds in zip(
@@ -70,7 +74,7 @@ def measure(name: str, policy: str, seed: int) -> dict[str, float]:
         ):
             spent[part] += seconds
     g = clock()
-    recorder.result({})
+    join_tables(team_rows.tables(), truth_rows.tables())
     spent["records"] += clock() - g
     wall = clock() - start
     steps = scenario.steps

@@ -21,10 +21,10 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from benchmarks.common import SCENARIOS, SHIPPED, machine, save, table
+from resilient_tracking import team as team_module
 from resilient_tracking.planning.nlp_cache import wait_for_compilers
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.sim import episode
 from resilient_tracking.sim.episode import run_episode
 
 
@@ -47,15 +47,15 @@ class TightIpoptPlanner(LeaguePlanner):
 
 def timed(name: str, solver: str, seed: int) -> dict[str, Any]:
     if solver == TIGHT:
-        episode.LeaguePlanner = TightIpoptPlanner  # type: ignore[misc]
+        team_module.LeaguePlanner = TightIpoptPlanner  # type: ignore[misc]
         s = scenario(name, "ipopt")
     else:
-        episode.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
+        team_module.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
         s = scenario(name, solver)
     start, cpu = time.perf_counter(), time.process_time()
     result = run_episode(s, seed=seed)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-    episode.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
+    team_module.LeaguePlanner = LeaguePlanner  # type: ignore[misc]
     team = result["team"]
     events = result["events"]
     return {

@@ -29,6 +29,7 @@ from resilient_tracking.ros2.tracker_node import TrackerNode
 from resilient_tracking.ros2.transport import loopback_config
 from resilient_tracking.ros2.world_node import WorldNode
 from resilient_tracking.scenario import Scenario, load_scenario
+from resilient_tracking.sim.episode import start_truth
 
 SEED = 3
 
@@ -55,7 +56,8 @@ def measure(scenario: Scenario, domain: int, warm_up: bool = False) -> dict[str,
     settings = NodeSettings.for_scenario(
         scenario, domain_id=domain, observation_timeout=2.0, give_up=20.0
     )
-    node = TrackerNode(scenario, SEED, scenario.policy.name, settings)
+    initial_targets, zones = start_truth(scenario, SEED)
+    node = TrackerNode(scenario, SEED, scenario.policy.name, settings, initial_targets, zones=zones)
     if warm_up:
         node.warm_up()
     work_ms: list[float] = []
@@ -86,9 +88,7 @@ def measure(scenario: Scenario, domain: int, warm_up: bool = False) -> dict[str,
     stats = summary_ms(work_ms[1:])  # the first tick builds the solver
     period_ms = 1e3 * scenario.dt
     events = result["events"]
-    building = events[
-        (events["event"] == "solver_fallback") & events["detail"].str.contains(BUILDING)
-    ]
+    building = events[(events["event"] == "solver_fallback") & (events["status"] == BUILDING)]
     return {
         "robots": len(scenario.robots),
         "targets": len(scenario.targets),

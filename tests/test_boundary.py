@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import ast
 import inspect
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +18,17 @@ from resilient_tracking.sim.episode import run_episode
 PACKAGE = Path(resilient_tracking.__file__).parent
 BELIEF_SIDE = ("belief", "planning", "policies", "models")
 BELIEF_FILES = ("team.py", "team_config.py", "observation.py")
+#: The code that runs on robots (``world_node.py``, the simulated world over DDS, is not).
+ROBOT_NODE_FILES = (
+    "ros2/tracker_node.py",
+    "ros2/bag.py",
+    "ros2/convert.py",
+    "ros2/markers.py",
+    "ros2/msgs.py",
+    "ros2/topics.py",
+    "ros2/transport.py",
+    "ros2/__init__.py",
+)
 
 
 #: Module prefixes the belief side must never import.
@@ -41,11 +54,18 @@ def _package_of(path: Path) -> str:
 def imported_modules(path: Path, package: str | None = None) -> set[str]:
     """Every module a file imports: absolute, relative (resolved), ``from pkg import module``
     (as ``pkg.module``), and string arguments of ``importlib.import_module``/``__import__``."""
-    tree = ast.parse(path.read_text())
+    return _imports_in(ast.parse(path.read_text()), _package(path, package))
+
+
+def _package(path: Path, package: str | None) -> str:
+    if package is not None:
+        return package
+    inside = path.resolve().is_relative_to(PACKAGE.resolve())
+    return _package_of(path) if inside else ""
+
+
+def _imports_in(tree: ast.AST, package: str) -> set[str]:
     out: set[str] = set()
-    if package is None:
-        inside = path.resolve().is_relative_to(PACKAGE.resolve())
-        package = _package_of(path) if inside else ""
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             out |= {a.name for a in node.names}
@@ -65,6 +85,60 @@ def imported_modules(path: Path, package: str | None = None) -> set[str]:
                 if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
                     out.add(arg.value)
     return out
+
+
+class _WithoutFunctions(ast.NodeTransformer):
+    """Drops function bodies (their imports run only when the function is called) and
+    ``if TYPE_CHECKING:`` blocks (never run)."""
+
+    def visit_FunctionDef(self, node: ast.FunctionDef) -> None:
+        return None
+
+    def visit_AsyncFunctionDef(self, node: ast.AsyncFunctionDef) -> None:
+        return None
+
+    def visit_If(self, node: ast.If) -> ast.AST | None:
+        if isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+            return None
+        return self.generic_visit(node)
+
+
+def module_level_imports(path: Path, package: str | None = None) -> set[str]:
+    """The modules a file imports when it is imported: like :func:`imported_modules`, but not
+    looking inside functions."""
+    tree = _WithoutFunctions().visit(ast.parse(path.read_text()))
+    return _imports_in(tree, _package(path, package))
+
+
+def module_file(module: str) -> Path | None:
+    """The file of a ``resilient_tracking`` module (``None`` for other packages or a name that
+    is not a module, such as a class imported with ``from``)."""
+    parts = module.split(".")
+    if parts[0] != PACKAGE.name:
+        return None
+    base = PACKAGE.parent.joinpath(*parts)
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def imported_at_load(path: Path, package: str | None = None) -> set[str]:
+    """Every ``resilient_tracking`` module loaded by importing the file ``path``: its
+    module-level imports, the packages above them, and theirs, transitively."""
+    found: set[str] = set()
+    todo = [(path, package)]
+    while todo:
+        file, pkg = todo.pop()
+        for module in module_level_imports(file, pkg):
+            parts = module.split(".")
+            for n in range(1, len(parts) + 1):
+                name = ".".join(parts[:n])
+                target = module_file(name)
+                if target is not None and name not in found:
+                    found.add(name)
+                    todo.append((target, None))
+    return found
 
 
 def truth_names_used(path: Path) -> set[str]:
@@ -96,6 +170,40 @@ def test_belief_side_never_imports_world_or_sim():
     }
     assert len(offenders) > 8  # the scan did find the files
     assert {k: v for k, v in offenders.items() if v} == {}
+
+
+@pytest.mark.parametrize("name", ROBOT_NODE_FILES)
+def test_robot_side_node_code_never_loads_the_world(name):
+    loaded = imported_at_load(PACKAGE / name)
+    assert any(m.startswith("resilient_tracking.runs") for m in loaded) or name != (
+        "ros2/tracker_node.py"
+    )
+    assert sorted(m for m in loaded if m.startswith("resilient_tracking.world")) == []
+
+
+def test_importing_the_tracker_node_loads_no_world_module():
+    pytest.importorskip("cyclonedds")
+    code = (
+        "import sys, resilient_tracking.ros2.tracker_node\n"
+        "print(sorted(m for m in sys.modules if m.startswith('resilient_tracking.')))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    loaded = ast.literal_eval(done.stdout.strip().splitlines()[-1])
+    assert "resilient_tracking.runs.team_recorder" in loaded  # the scan saw the node's imports
+    assert [m for m in loaded if m.startswith("resilient_tracking.world")] == []
+
+
+def test_the_load_scan_follows_imports_and_skips_functions(tmp_path):
+    bad = tmp_path / "node.py"
+    bad.write_text("from resilient_tracking.sim.episode import run_episode\n")
+    assert "resilient_tracking.world" in imported_at_load(bad, "resilient_tracking.ros2")
+    lazy = tmp_path / "lazy.py"
+    lazy.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n    from resilient_tracking.world import World\n"
+        "def warm_up():\n    from resilient_tracking.sim.episode import run_episode\n"
+    )
+    assert imported_at_load(lazy, "resilient_tracking.ros2") == set()
 
 
 def test_belief_side_never_names_a_truth_class():

@@ -7,8 +7,9 @@ import pandas as pd
 import pytest
 
 from helpers import shipped
+from resilient_tracking.runs.records import ColumnTable, write_run
+from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import TABLES, ColumnTable, write_run
 
 
 def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
@@ -16,13 +17,13 @@ def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
     a = run_episode(scenario, seed=3)
     b = run_episode(scenario, seed=3)
     c = run_episode(scenario, seed=4)
-    for name in TABLES:
+    for name in REPRODUCIBLE:
         pd.testing.assert_frame_equal(a[name], b[name])
     assert not np.allclose(a["zones"]["true_x"], c["zones"]["true_x"])
     # written files read back identical too
     write_run(a, tmp_path / "a")
     write_run(b, tmp_path / "b")
-    for name in TABLES:
+    for name in REPRODUCIBLE:
         pd.testing.assert_frame_equal(
             pd.read_parquet(tmp_path / "a" / f"{name}.parquet"),
             pd.read_parquet(tmp_path / "b" / f"{name}.parquet"),
@@ -71,7 +72,7 @@ def test_a_team_that_knows_the_zone_from_the_start_is_attacked_less():
         zones=[z.model_dump() | {"known": False} for z in scenario.zones]
     )
     again = run_episode(written, seed=3)
-    for name in TABLES:
+    for name in REPRODUCIBLE:
         pd.testing.assert_frame_equal(again[name], learned[name])
 
 

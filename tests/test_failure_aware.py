@@ -172,7 +172,7 @@ def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
     result = run_episode(s, seed=1)
     events, robots = result["events"], result["robots"]
     hit = events[(events.event == "attack") & (events.robot == 0)]
-    assert len(hit) == 1 and "permanent" in hit.detail.item()
+    assert len(hit) == 1 and hit.persistence.item() == "permanent"
     k0 = int(hit.step.item())
     r0 = robots[robots.robot == 0]
     assert set(r0[r0.step > k0]["mode"]) == {"circular"}

@@ -1,15 +1,14 @@
 """Refactors change no result: run tables equal, bit for bit, those recorded before them.
 
 The fingerprints in ``tests/data/golden_tables.json`` were written by
-``python tools/table_hashes.py --write`` on the commit before the planning package was split.
+``python -m resilient_tracking.runs.fingerprints --write`` (``tools/table_hashes.py --write``).
 A change that is meant to alter results must re-record them and say why in its commit.
-They are taken with OpenBLAS's kernels and NumPy's SIMD level pinned (``PINNED_ENV`` of the
-tool), since those differ between CPUs and round differently.
+They are taken with OpenBLAS's kernels and NumPy's SIMD level pinned (``PINNED_ENV``), since
+those differ between CPUs and round differently.
 """
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -18,22 +17,20 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("table_hashes", ROOT / "tools" / "table_hashes.py")
-assert _spec is not None and _spec.loader is not None
-table_hashes = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(table_hashes)
+from resilient_tracking.runs import fingerprints
+from resilient_tracking.sim.kernels import PINNED_ENV
 
-GOLDEN = json.loads(table_hashes.GOLDEN.read_text())
+ROOT = Path(__file__).resolve().parents[1]
+GOLDEN = json.loads((ROOT / fingerprints.GOLDEN).read_text())
 
 
 @pytest.fixture(scope="module")
 def found() -> dict[str, dict[str, str]]:
-    """Every run's fingerprints, from one process with the BLAS kernels pinned (the tool's
-    ``PINNED_ENV``: this process loaded NumPy long ago)."""
+    """Every run's fingerprints, from one process with the BLAS kernels pinned
+    (``PINNED_ENV``: this process loaded NumPy long ago)."""
     done = subprocess.run(
-        [sys.executable, str(ROOT / "tools" / "table_hashes.py"), "--json"],
-        env={**os.environ, **table_hashes.PINNED_ENV},
+        [sys.executable, "-m", fingerprints.MODULE, "--json"],
+        env={**os.environ, **PINNED_ENV},
         capture_output=True,
         text=True,
         timeout=1200,
@@ -43,7 +40,17 @@ def found() -> dict[str, dict[str, str]]:
     return dict(json.loads(done.stdout.splitlines()[-1]))
 
 
-@pytest.mark.parametrize("run", table_hashes.RUNS, ids=lambda r: f"{r[0]}/{r[1]}")
+@pytest.mark.parametrize("run", fingerprints.RUNS, ids=lambda r: f"{r[0]}/{r[1]}")
 def test_tables_equal_recorded(run: tuple[str, str], found: dict[str, dict[str, str]]) -> None:
     key = f"{run[0]}/{run[1]}"
     assert found[key] == GOLDEN[key]
+
+
+def test_a_changed_table_changes_its_fingerprint() -> None:
+    import pandas as pd
+
+    table = pd.DataFrame({"step": [0, 1], "x": [0.5, 1.5]})
+    same = fingerprints.table_hash(table.copy())
+    assert fingerprints.table_hash(table) == same
+    assert fingerprints.table_hash(table.assign(x=[0.5, 1.25])) != same
+    assert fingerprints.table_hash(table.astype({"step": "int32"})) != same

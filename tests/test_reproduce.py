@@ -23,7 +23,7 @@ from resilient_tracking.experiments.catalog import (
 from resilient_tracking.experiments.claims import check
 from resilient_tracking.experiments.report import write_report
 from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
-from resilient_tracking.sim.records import TABLES
+from resilient_tracking.runs.schema import REPRODUCIBLE
 
 TINY = Experiment(
     "tiny",
@@ -39,7 +39,7 @@ def tiny_tasks(steps: int = 12):
 
 
 def tables_of(out, task):
-    return {n: pd.read_parquet(run_dir(out, task) / f"{n}.parquet") for n in TABLES}
+    return {n: pd.read_parquet(run_dir(out, task) / f"{n}.parquet") for n in REPRODUCIBLE}
 
 
 def test_catalog_has_every_experiment_of_spec_section_6_with_its_seed_counts():
@@ -118,7 +118,7 @@ def test_dask_local_cluster_gives_the_same_tables_as_joblib(tmp_path):
     run_sweep(todo, tmp_path / "dask", jobs=2, dask="local")
     for t in todo:
         a, b = tables_of(tmp_path / "joblib", t), tables_of(tmp_path / "dask", t)
-        for name in TABLES:
+        for name in REPRODUCIBLE:
             pd.testing.assert_frame_equal(a[name], b[name])
 
 
@@ -233,7 +233,7 @@ def quick_claims(tmp_path_factory):
     """`rtrack reproduce all --quick`, as CI runs it; the claims as computed for its report."""
     from resilient_tracking.experiments.catalog import catalog as full_catalog
     from resilient_tracking.experiments.summary import summarise_run
-    from resilient_tracking.viz.io import load_run
+    from resilient_tracking.runs.reading import load_run
 
     out = tmp_path_factory.mktemp("quick")
     assert main(["reproduce", "all", "--quick", "--out", str(out), "--jobs", "2", "-q"]) == 0

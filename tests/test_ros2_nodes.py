@@ -31,8 +31,8 @@ from resilient_tracking.ros2.convert import observation_to_msg, pose_stamped, st
 from resilient_tracking.ros2.topics import OBSERVATION_TOPIC, NodeSettings
 from resilient_tracking.ros2.tracker_node import TrackerNode
 from resilient_tracking.ros2.transport import DdsNode, default_qos, loopback_config, take
-from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import TABLES
+from resilient_tracking.runs.schema import REPRODUCIBLE
+from resilient_tracking.sim.episode import run_episode, start_truth
 from resilient_tracking.world import World
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -85,7 +85,7 @@ def test_lockstep_run_between_two_processes_equals_rtrack_run(spawn, tmp_path: P
     assert node.wait(timeout=120) == 0, (tmp_path / "node.log").read_text()
     assert world.wait(timeout=30) == 0, (tmp_path / "world.log").read_text()
     reference = run_episode(shipped("sensing-temp"), seed=3)
-    for name in TABLES:
+    for name in REPRODUCIBLE:
         over_dds = pd.read_parquet(tmp_path / "N" / f"{name}.parquet")
         assert _hash(over_dds) == _hash(reference[name]), name
     # the bag holds what travelled, decodable with ROS 2's definitions
@@ -145,7 +145,8 @@ class _InProcess:
             self.scenario, domain_id=domain, pose_timeout=5.0, observation_timeout=60.0
         )
         self.settings = settings
-        self.node = TrackerNode(self.scenario, 1, "failure_aware", settings)
+        initial, zones = start_truth(self.scenario, 1)
+        self.node = TrackerNode(self.scenario, 1, "failure_aware", settings, initial, zones=zones)
         self.feed = DdsNode(domain)
         self.poses = {
             n: self.feed.publisher(settings.pose_topic(n), msgs.PoseStamped, default_qos())
@@ -244,12 +245,13 @@ def test_a_free_running_node_builds_in_the_background_and_warm_up_fills_the_cach
     monkeypatch.setattr(cache_module, "_NLPS", LruCache(cache_module.NLP_BUDGET))  # empty
     scenario = shipped("sensing-temp").with_overrides(steps=40)
     free = NodeSettings.for_scenario(scenario, domain_id=domain)
-    node = TrackerNode(scenario, 1, "failure_aware", free)
+    initial, _ = start_truth(scenario, 1)
+    node = TrackerNode(scenario, 1, "failure_aware", free, initial)
     assert node.planner is not None and node.planner.background_builds
     node.warm_up()  # the mission once in simulation: its structures are built now
     assert cache_module.nlp_cache().builds > 0
     locked = dataclasses.replace(free, lockstep=True)
-    assert not TrackerNode(scenario, 1, "failure_aware", locked).planner.background_builds
+    assert not TrackerNode(scenario, 1, "failure_aware", locked, initial).planner.background_builds
 
 
 def test_a_background_writer_writes_the_newest_message_and_drops_stale_ones():

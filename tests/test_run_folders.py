@@ -12,20 +12,27 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from resilient_tracking.sim import folders
-from resilient_tracking.sim.records import TABLES, TIMING, EpisodeResult, write_run
+from resilient_tracking.runs import folders
+from resilient_tracking.runs.records import EpisodeResult, write_run
+from resilient_tracking.runs.schema import ALL_TABLES, TABLES
+
+
+def declared_table(name: str, rows: int) -> pd.DataFrame:
+    """``rows`` rows of every declared column of table ``name`` (zeros, ``False``, ``"x"``)."""
+    fill = {"int64": 0, "float64": 0.5, "bool": False, "str": "x"}
+    table = TABLES[name]
+    return pd.DataFrame({c.name: [fill[c.dtype]] * rows for c in table.columns})
 
 
 def tiny_result(rows: int = 3) -> EpisodeResult:
-    tables = {name: pd.DataFrame({"step": range(rows), "x": [0.5] * rows}) for name in TABLES}
-    tables[TIMING] = pd.DataFrame({"step": range(rows), "seconds": [0.1] * rows})
+    tables = {name: declared_table(name, rows) for name in ALL_TABLES}
     return EpisodeResult(tables, {"policy": "vanilla", "seed": 42})
 
 
 def test_the_manifest_records_a_checksum_of_every_table_and_of_itself(tmp_path):
     out = write_run(tiny_result(), tmp_path / "run")
     manifest = json.loads((out / "manifest.json").read_text())
-    assert sorted(manifest["files"]) == sorted(f"{t}.parquet" for t in (*TABLES, TIMING))
+    assert sorted(manifest["files"]) == sorted(f"{t}.parquet" for t in ALL_TABLES)
     for name, digest in manifest["files"].items():
         assert folders.sha256_of(out / name) == digest
     assert manifest["manifest_sha256"] == folders.manifest_digest(manifest)
@@ -114,7 +121,7 @@ def test_a_folder_locked_by_another_process_is_refused(tmp_path):
         [
             sys.executable,
             "-c",
-            "import sys, time; from resilient_tracking.sim.folders import folder_lock\n"
+            "import sys, time; from resilient_tracking.runs.folders import folder_lock\n"
             f"with folder_lock({str(out)!r}):\n"
             "    print('held', flush=True); time.sleep(60)\n",
         ],

@@ -32,9 +32,9 @@ from resilient_tracking.planning.sog_problem import (
 )
 from resilient_tracking.policies import POLICIES, SogPolicy
 from resilient_tracking.policies.sog import SogParams, abundance_weights
+from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import parse_scenario
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import TABLES
 from resilient_tracking.team import Team
 from resilient_tracking.world.zones import GaussianHazardModel
 
@@ -236,7 +236,7 @@ def test_a_solver_failure_holds_position_and_is_recorded(monkeypatch):
     np.testing.assert_array_equal(out.controls, 0.0)
     fallbacks = [e for e in out.events if e.event == "solver_fallback"]
     assert sorted(e.robot for e in fallbacks) == [0, 1, 2]
-    assert all("safe" in e.detail for e in fallbacks)
+    assert all(e.fallback == "safe" and e.action in ("escape", "hold") for e in fallbacks)
 
 
 def test_the_episode_fault_hook_reaches_the_sog_planner():
@@ -248,7 +248,7 @@ def test_the_episode_fault_hook_reaches_the_sog_planner():
     s = shipped("sensing-temp").with_overrides(steps=5)
     events = run_episode(s, policy="sog", seed=1, fault_hook=infeasible)["events"]
     fallbacks = events[events.event == "solver_fallback"]
-    assert len(fallbacks) == 5 * 3 and fallbacks.detail.str.startswith("safe").all()
+    assert len(fallbacks) == 5 * 3 and (fallbacks.fallback == "safe").all()
 
 
 @pytest.mark.parametrize("solver, first", [("ladder", "sqp"), ("ipopt", "cold")])
@@ -284,7 +284,7 @@ def test_a_sog_episode_is_reproducible_bit_for_bit():
     s = shipped("sensing-perm").with_overrides(steps=130)
     a, b = (run_episode(s, policy="sog", seed=1) for _ in range(2))
     assert (a["events"].event == "attack").any()  # knowledge and the zone term are exercised
-    for table in TABLES:
+    for table in REPRODUCIBLE:
         pd.testing.assert_frame_equal(a[table], b[table], check_exact=True)
 
 

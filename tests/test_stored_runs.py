@@ -18,7 +18,8 @@ import pandas as pd
 
 from resilient_tracking.experiments.catalog import Experiment, Variant, tasks
 from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
-from resilient_tracking.sim.records import TABLES
+from resilient_tracking.runs import folders
+from resilient_tracking.runs.schema import REPRODUCIBLE, TABLES
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = Experiment(
@@ -44,6 +45,26 @@ def test_a_truncated_stored_table_is_redone_with_a_warning(tmp_path, caplog):
         for r in caplog.records
     )
     pd.testing.assert_frame_equal(pd.read_parquet(team), before)
+
+
+def test_a_stored_run_with_untyped_events_is_reported_old_and_redone(tmp_path, caplog):
+    todo = tiny_tasks()
+    run_sweep(todo, tmp_path)
+    folder = run_dir(tmp_path, todo[0])
+    events = folder / "events.parquet"
+    old = pd.read_parquet(events)[["step", "robot", "event", "detail"]]
+    old.to_parquet(events, index=False)  # as written before events had typed columns
+    manifest = folders.seal(folders.read_manifest(folder), folder)
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    reason = folders.verify(folder)
+    assert reason is not None and reason.startswith(f"{events}: an old run")
+    assert "kind" in reason
+    with caplog.at_level(logging.WARNING):
+        ran = run_sweep(todo, tmp_path)
+    assert [t.run_id for t in ran] == [todo[0].run_id]
+    assert any("an old run" in r.getMessage() for r in caplog.records)
+    assert set(TABLES["events"].names) <= set(pd.read_parquet(events).columns)
+    assert folders.verify(folder) is None
 
 
 def test_an_edited_stored_manifest_is_redone(tmp_path, caplog):
@@ -135,7 +156,7 @@ def test_ctrl_c_and_a_killed_parent_leave_no_worker_and_keep_finished_runs(tmp_p
     stored = list((tmp_path / "res").glob("runs/*/*/*/manifest.json"))
     assert stored
     for manifest in stored:
-        for name in TABLES:
+        for name in REPRODUCIBLE:
             pd.read_parquet(manifest.parent / f"{name}.parquet")
 
     # SIGKILL of the parent alone: its workers notice and exit

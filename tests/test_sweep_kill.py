@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.sim.records import TABLES
+from resilient_tracking.runs.schema import REPRODUCIBLE
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEP = ["reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q"]
@@ -41,7 +41,7 @@ def stored_runs(out: Path) -> dict[str, Path]:
 
 def assert_whole(run: Path) -> None:
     """A stored run folder has every table, each readable."""
-    for name in TABLES:
+    for name in REPRODUCIBLE:
         pd.read_parquet(run / f"{name}.parquet")
 
 
@@ -69,7 +69,7 @@ def test_sigkill_at_random_moments_then_resume_equals_an_uninterrupted_sweep(tmp
     a, b = stored_runs(killed), stored_runs(clean)
     assert sorted(a) == sorted(b) and len(a) == 8
     for run_id in a:
-        for name in TABLES:
+        for name in REPRODUCIBLE:
             pd.testing.assert_frame_equal(
                 pd.read_parquet(a[run_id] / f"{name}.parquet"),
                 pd.read_parquet(b[run_id] / f"{name}.parquet"),

@@ -16,6 +16,7 @@ import pytest  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from resilient_tracking.runs.schema import TABLES  # noqa: E402
 from resilient_tracking.viz import (  # noqa: E402
     attack_table,
     known_zones_at,
@@ -43,6 +44,14 @@ KNOWLEDGE_COLUMNS = [
     "sigma_yy",
     "size",
 ]
+
+
+def declared(name: str, df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with every column the declaration gives table ``name`` (those it lacks filled
+    with an empty value of the declared dtype), extra columns kept."""
+    empty = {"int64": -1, "float64": np.nan, "bool": False, "str": ""}
+    missing = {c.name: empty[c.dtype] for c in TABLES[name].columns if c.name not in df}
+    return df.assign(**missing)
 
 
 def _knowledge_rows() -> pd.DataFrame:
@@ -126,14 +135,14 @@ def write_run(run_dir: Path, *, empty_knowledge: bool = False, workspace: bool =
 
     events = pd.DataFrame(
         [
-            (15, 0, "attack", "sensing temporary zone 0"),
-            (15, 0, "zone_learned", "zone 0"),
-            (25, 0, "recover", "sensing"),
-            (30, 1, "attack", "comm permanent zone 1"),
-            (30, -1, "league_split", "2 leagues"),
-            (42, 2, "attack", "sensing temporary zone 0"),
+            (15, 0, "attack", "sensing zone0 temporary (hazard)", "sensing", 0, "temporary"),
+            (15, 0, "zone_learned", "zone0 sensing via attack", "sensing", 0, "temporary"),
+            (25, 0, "recover", "sensing", "sensing", -1, ""),
+            (30, 1, "attack", "comm zone1 permanent (hazard)", "comm", 1, "permanent"),
+            (30, -1, "league_split", "league [1] split off", "", -1, ""),
+            (42, 2, "attack", "sensing zone0 temporary (hazard)", "sensing", 0, "temporary"),
         ],
-        columns=["step", "robot", "event", "detail"],
+        columns=["step", "robot", "event", "detail", "kind", "zone", "persistence"],
     )
 
     zones = pd.DataFrame(
@@ -169,7 +178,7 @@ def write_run(run_dir: Path, *, empty_knowledge: bool = False, workspace: bool =
         "zones": zones,
         "knowledge": knowledge,
     }.items():
-        df.to_parquet(run_dir / f"{name}.parquet", index=False)
+        declared(name, df).to_parquet(run_dir / f"{name}.parquet", index=False)
 
     scenario: dict[str, object] = {"name": "synthetic-combined", "dt": DT}
     if workspace:
@@ -234,6 +243,25 @@ def test_known_zones_at_ties_and_empty() -> None:
     out = known_zones_at(empty, 10)
     assert out.empty
     assert list(out.columns) == KNOWLEDGE_COLUMNS
+
+
+def test_attack_kinds_are_read_from_the_kind_column(tmp_path: Path) -> None:
+    run_dir = write_run(tmp_path / "run")
+    events = pd.read_parquet(run_dir / "events.parquet")
+    events.assign(detail="").to_parquet(run_dir / "events.parquet", index=False)
+    assert list(attack_table(load_run(run_dir))["kind"]) == ["sensing", "comm", "sensing"]
+    events.assign(kind="comm").to_parquet(run_dir / "events.parquet", index=False)
+    assert list(attack_table(load_run(run_dir))["kind"]) == ["comm"] * 3
+
+
+def test_a_run_with_old_untyped_events_is_named_old(tmp_path: Path) -> None:
+    run_dir = write_run(tmp_path / "run")
+    old = pd.read_parquet(run_dir / "events.parquet")[["step", "robot", "event", "detail"]]
+    old.to_parquet(run_dir / "events.parquet", index=False)
+    with pytest.raises(
+        ValueError, match=r"events\.parquet: missing columns \['kind'.*run it again"
+    ):
+        load_run(run_dir)
 
 
 def test_load_run_and_attack_table(tmp_path: Path) -> None:

@@ -18,20 +18,20 @@ import sys
 
 import numpy as np
 import pandas as pd
+from resilient_tracking.sim.records import EpisodeResult
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import SIX
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import EpisodeResult
 from resilient_tracking.sim.soak import non_finite_cells
 
 
 def closer_to_known_zone(result: EpisodeResult) -> int:
     """Safe-action steps after which the robot was closer to a zone it knew (should be 0)."""
     events, robots, knowledge = result["events"], result["robots"], result["knowledge"]
-    safe = events[(events["event"] == "solver_fallback") & events["detail"].str.startswith("safe")]
+    safe = events[(events["event"] == "solver_fallback") & (events["fallback"] == "safe")]
     pos = robots.set_index(["step", "robot"])[["x", "y"]]
     bad = 0
     for step, robot in safe[["step", "robot"]].itertuples(index=False):
@@ -68,15 +68,15 @@ def main(argv: list[str] | None = None) -> int:
                     failed += 1
                     continue
                 events = result["events"]
-                fb = events[events["event"] == "solver_fallback"]["detail"]
+                fb = events[events["event"] == "solver_fallback"]
                 row = {
                     "scenario": name,
                     "policy": policy,
                     "seed": seed,
                     **{k: v for k, v in injector.summary().items()},
-                    "retry_ok": int((~fb.str.startswith("safe")).sum()),
-                    "safe_escape": int(fb.str.startswith("safe (escape)").sum()),
-                    "safe_hold": int(fb.str.startswith("safe (hold)").sum()),
+                    "retry_ok": int((fb["fallback"] != "safe").sum()),
+                    "safe_escape": int((fb["action"] == "escape").sum()),
+                    "safe_hold": int((fb["action"] == "hold").sum()),
                     "non_finite": sum(non_finite_cells(result).values()),
                     "closer": closer_to_known_zone(result),
                 }

@@ -1,7 +1,8 @@
 """Failure-aware multi-robot target tracking (Li, Liu, Wu, Zhou).
 
 Layout: ``world`` holds truth, ``belief`` what the robots know, ``planning`` and ``policies``
-decide from belief only, ``sim`` runs episodes and records them, ``viz`` plots saved data.
+decide from belief only, ``sim`` runs episodes, ``runs`` declares, records, writes and reads
+their tables, ``viz`` plots saved data.
 
 What a user needs is importable from here (loaded on first use, so ``import
 resilient_tracking`` stays light)::
@@ -60,7 +61,7 @@ _PUBLIC = {
     "UnknownName": "resilient_tracking.registry",
     # running episodes
     "run_episode": "resilient_tracking.sim.episode",
-    "EpisodeResult": "resilient_tracking.sim.records",
+    "EpisodeResult": "resilient_tracking.runs.records",
 }
 
 __all__ = [
@@ -129,6 +130,7 @@ if TYPE_CHECKING:
     from resilient_tracking.policies.planning_helpers import PlanningPolicy
     from resilient_tracking.policy_check import PolicyReport, check_policy
     from resilient_tracking.registry import UnknownName
+    from resilient_tracking.runs.records import EpisodeResult
     from resilient_tracking.scenario import (
         HazardSpec,
         MotionSpec,
@@ -138,7 +140,6 @@ if TYPE_CHECKING:
         parse_scenario,
     )
     from resilient_tracking.sim.episode import run_episode
-    from resilient_tracking.sim.records import EpisodeResult
     from resilient_tracking.team import Team, TeamStep
     from resilient_tracking.team_config import TeamConfig
     from resilient_tracking.world.hazard_model import HAZARDS, HazardModel

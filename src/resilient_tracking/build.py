@@ -12,11 +12,13 @@ from typing import Any
 
 import numpy as np
 
+from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.knowledge import ZoneEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.observation import ZoneClue
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import POLICIES, Policy
+from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.team_config import TeamConfig
 
@@ -74,3 +76,13 @@ def zone_map(scenario: Scenario) -> list[ZoneEstimate]:
         for k, spec in enumerate(scenario.zones)
         if spec.known
     ]
+
+
+def prior_estimate(scenario: Scenario, truth: np.ndarray, seed: int) -> TargetEstimate:
+    """The prior around the targets' starting states ``truth`` (N, 4), seeded like an episode."""
+    spec = scenario.estimator
+    std = np.array([spec.initial_position_std] * 2 + [spec.initial_velocity_std] * 2)
+    noise = stream(seed, "estimator_init").standard_normal(truth.shape) * std
+    return TargetEstimate.initial(
+        truth + noise, spec.initial_position_std, spec.initial_velocity_std
+    )

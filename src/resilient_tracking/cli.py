@@ -13,8 +13,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from resilient_tracking import __version__, interrupts
+from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario, ScenarioError
-from resilient_tracking.sim.folders import folder_name
 
 #: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
 MAX_SEEDS = 1000
@@ -108,7 +108,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print("error: --seed: must be non-negative", file=sys.stderr)
         return 1
 
-    from resilient_tracking.sim.folders import check_out_folder, folder_lock
+    from resilient_tracking.runs.folders import check_out_folder, folder_lock
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
@@ -129,8 +129,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _run_into(
     args: argparse.Namespace, scenario: Scenario, policy: str, seed: int, out: Path
 ) -> int:
+    from resilient_tracking.runs.records import write_run
     from resilient_tracking.sim.episode import run_episode
-    from resilient_tracking.sim.records import write_run
     from resilient_tracking.viz import make_run_figures
 
     figures: list[Path] = []
@@ -296,7 +296,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     import yaml
 
     from resilient_tracking.experiments.generator import SUITE_SEED, drawn, stored_suite
-    from resilient_tracking.sim.folders import write_text_atomic
+    from resilient_tracking.runs.folders import write_text_atomic
 
     if _out_of_range("-n", args.n, 1, MAX_SEEDS):
         return 1
@@ -385,7 +385,7 @@ def cmd_node(args: argparse.Namespace) -> int:
     scenario, seed, settings = setup
     from resilient_tracking.ros2.bag import BagRecorder
     from resilient_tracking.ros2.tracker_node import TrackerNode
-    from resilient_tracking.sim.records import is_run_folder, write_run
+    from resilient_tracking.runs.records import is_run_folder, write_run
 
     why = _policy_problem(args.policy)
     if why is not None:
@@ -401,7 +401,18 @@ def cmd_node(args: argparse.Namespace) -> int:
     except FileExistsError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
-    node = TrackerNode(scenario, seed, policy, settings, bag=bag)  # type: ignore[arg-type]
+    from resilient_tracking.sim.episode import start_truth
+
+    initial_targets, zones = start_truth(scenario, seed)
+    node = TrackerNode(
+        scenario,
+        seed,
+        policy,
+        settings,  # type: ignore[arg-type]
+        initial_targets,
+        bag=bag,
+        zones=zones,
+    )
     if args.warm_up:
         if not args.quiet:
             print("warming up: running the scenario once in simulation to build its problems")
@@ -637,7 +648,7 @@ def main(argv: list[str] | None = None) -> int:
         # Dask's scheduler and workers (child processes too) log at INFO by default
         os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
         logging.getLogger("distributed").setLevel(logging.WARNING)
-    from resilient_tracking.sim.folders import FolderBusyError
+    from resilient_tracking.runs.folders import FolderBusyError
 
     try:
         with interrupts.catching():

@@ -1,16 +1,179 @@
-"""Events worth a row in ``events.parquet``: attacks, recoveries, learning, merges, fallbacks."""
+"""Events worth a row in ``events.parquet``: attacks, recoveries, learning, merges, fallbacks.
+
+An :class:`Event` is a typed record: besides its name it carries the facts a reader needs
+(failure kind, zone, persistence, cause, how a zone was learned, which fallback a plan took)
+as fields, which are the columns of the events table
+(:data:`resilient_tracking.runs.schema.TABLES`). Each kind of event is made by its own
+constructor below, the one place where its human-readable ``detail`` is written; readers use
+the fields, never the text.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal, get_args
+
+import numpy as np
 
 #: ``robot`` value for events that concern a league or the whole team.
 TEAM = -1
+#: ``zone`` value for events that concern no known zone.
+NO_ZONE = -1
+
+EventName = Literal[
+    "attack",
+    "recover",
+    "covariance_repaired",
+    "league_merge",
+    "league_split",
+    "zone_learned",
+    "zone_suspected",
+    "zone_inferred",
+    "solver_fallback",
+    "invalid_decision",
+]
+#: Every event name, in the order of :data:`EventName`.
+EVENT_NAMES: tuple[EventName, ...] = get_args(EventName)
 
 
 @dataclass(frozen=True)
 class Event:
+    """One row of ``events.parquet``; fields that do not apply keep their empty default."""
+
     step: int
+    #: the robot concerned, or :data:`TEAM`
     robot: int
-    event: str
+    event: EventName
+    #: one line for people, written by the constructor of the event's kind
     detail: str = ""
+    #: failure kind ``sensing``/``comm`` of the attack, recovery or zone; empty otherwise
+    kind: str = ""
+    #: id of the zone that attacked or was learned, :data:`NO_ZONE` when none is known
+    zone: int = NO_ZONE
+    #: ``temporary``/``permanent`` (attack: of the failure; zone_learned: as believed, also
+    #: ``unknown``); empty otherwise
+    persistence: str = ""
+    #: why an attack happened: ``hazard`` (the zone's draw) or ``jamming`` (links cut); what
+    #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…)
+    cause: str = ""
+    #: how a zone became known: ``attack``, ``broadcast``, ``circle``, ``silence``
+    source: str = ""
+    #: the rung a plan fell back to (``safe`` or a simpler program)
+    fallback: str = ""
+    #: what the safe action did for the robot: ``escape`` or ``hold``
+    action: str = ""
+    #: the planner's status that led to a fallback
+    status: str = ""
+
+    @classmethod
+    def attack(
+        cls, step: int, robot: int, kind: str, zone: int, persistence: str, cause: str
+    ) -> Event:
+        """A robot lost its sensor or radio to ``zone``."""
+        detail = f"{kind} zone{zone} {persistence} ({cause})"
+        return cls(
+            step,
+            robot,
+            "attack",
+            detail,
+            kind=kind,
+            zone=zone,
+            persistence=persistence,
+            cause=cause,
+        )
+
+    @classmethod
+    def recover(cls, step: int, robot: int, kind: str) -> Event:
+        """A robot's temporary failure of ``kind`` ended."""
+        return cls(step, robot, "recover", kind, kind=kind)
+
+    @classmethod
+    def covariance_repaired(cls, step: int, league: Sequence[int], description: str) -> Event:
+        """A league's covariance was made symmetric positive definite again."""
+        return cls(step, TEAM, "covariance_repaired", f"league {list(league)} {description}")
+
+    @classmethod
+    def league_merge(
+        cls,
+        step: int,
+        members: Sequence[int],
+        league: Sequence[int],
+        lambdas: Sequence[float] | np.ndarray,
+    ) -> Event:
+        """Robots ``members`` joined ``league``; ``lambdas`` are the fusion weights (eq. 10)."""
+        weights = np.round(np.asarray(lambdas), 3).tolist()
+        detail = f"robots {list(members)} joined {list(league)}; lambda={weights}"
+        return cls(step, TEAM, "league_merge", detail)
+
+    @classmethod
+    def league_split(cls, step: int, league: Sequence[int]) -> Event:
+        """``league`` split off the league it belonged to."""
+        return cls(step, TEAM, "league_split", f"league {list(league)} split off")
+
+    @classmethod
+    def zone_learned(
+        cls,
+        step: int,
+        robot: int,
+        key: str,
+        kind: str,
+        source: str,
+        zone: int | None,
+        persistence: str,
+    ) -> Event:
+        """``robot`` learned the zone estimate ``key`` through ``source``."""
+        return cls(
+            step,
+            robot,
+            "zone_learned",
+            f"{key} {kind} via {source}",
+            kind=kind,
+            zone=NO_ZONE if zone is None else zone,
+            persistence=persistence,
+            source=source,
+        )
+
+    @classmethod
+    def zone_suspected(cls, step: int, robot: int, x: float, y: float) -> Event:
+        """``robot`` fell silent at ``(x, y)``: a provisional comm zone there."""
+        return cls(
+            step, robot, "zone_suspected", f"at ({x:.3f}, {y:.3f})", kind="comm", source="silence"
+        )
+
+    @classmethod
+    def zone_inferred(
+        cls,
+        step: int,
+        robot: int,
+        center: Sequence[float] | np.ndarray,
+        radius: float,
+        residual: float,
+        arc: float,
+        samples: int,
+    ) -> Event:
+        """A comm zone was fitted to the circle ``robot`` flies (Alg. 4)."""
+        detail = (
+            f"center=({center[0]:.3f}, {center[1]:.3f}) radius={radius:.3f}"
+            f" residual={residual:.4f} arc={arc:.2f} n={samples}"
+        )
+        return cls(step, robot, "zone_inferred", detail, kind="comm", source="circle")
+
+    @classmethod
+    def solver_fallback(
+        cls, step: int, robot: int, fallback: str, status: str, action: str = ""
+    ) -> Event:
+        """``robot``'s plan fell back to ``fallback`` (with the safe ``action``, if any)."""
+        detail = f"safe ({action}): {status}" if action else f"{fallback}: {status}"
+        return cls(
+            step, robot, "solver_fallback", detail, fallback=fallback, action=action, status=status
+        )
+
+    @classmethod
+    def invalid_decision(
+        cls, step: int, robot: int, policy: str, problem: str, message: str
+    ) -> Event:
+        """``policy`` decided something ``robot`` cannot do (``problem``: ``not_finite``,
+        ``out_of_bounds``, ``shape``, ``type`` or ``modes``); the robot held its position."""
+        detail = f"policy {policy}: {message}"
+        return cls(step, robot, "invalid_decision", detail, cause=problem, action="hold")

@@ -28,9 +28,10 @@ from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.build import make_policy, team_config, zone_map
+from resilient_tracking.build import make_policy, prior_estimate, team_config, zone_map
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning.planner import FaultHook, LeaguePlanner
 from resilient_tracking.policies.base import Decision, Policy
 from resilient_tracking.policies.checks import DecisionProblem, decision_problems
 from resilient_tracking.scenario import Scenario
@@ -130,16 +131,17 @@ class Team:
                 f"got {obs.n_targets}"
             )
         events = [
-            Event(
+            Event.attack(
                 obs.step,
                 a.robot,
-                "attack",
-                f"{a.clue.kind} zone{a.clue.zone_id} "
-                f"{'temporary' if a.cause == 'jamming' else a.clue.persistence} ({a.cause})",
+                a.clue.kind,
+                a.clue.zone_id,
+                "temporary" if a.cause == "jamming" else a.clue.persistence,
+                a.cause,
             )
             for a in obs.attacks
         ]
-        events += [Event(obs.step, robot, "recover", kind) for robot, kind in obs.recoveries]
+        events += [Event.recover(obs.step, robot, kind) for robot, kind in obs.recoveries]
         events += self.belief.update(obs)
         decision = self.policy.act(self.belief, obs)
         controls, problems = decision_problems(decision, self.config, obs.positions)
@@ -147,7 +149,7 @@ class Team:
             decision = self._contain(decision, controls, problems, obs)
         events += decision.events
         events += [
-            Event(obs.step, robot, "zone_learned", f"{z.key} {z.kind} via {z.source}")
+            Event.zone_learned(obs.step, robot, z.key, z.kind, z.source, z.zone_id, z.persistence)
             for robot, z in self.belief.learned
         ]
         return TeamStep(controls=decision.controls, decision=decision, events=events)
@@ -177,7 +179,7 @@ class Team:
         for p in problems:
             for i in [p.robot] if p.robot is not None else range(m):
                 contained.events.append(
-                    Event(obs.step, i, "invalid_decision", f"policy {name}: {p.message}")
+                    Event.invalid_decision(obs.step, i, name, p.kind, p.message)
                 )
         self.invalid_controls += len(held)
         log.warning(
@@ -188,3 +190,23 @@ class Team:
             sorted(held),
         )
         return contained
+
+
+def build_team(
+    scenario: Scenario,
+    policy_name: str,
+    seed: int,
+    initial_targets: np.ndarray,
+    fault_hook: FaultHook | None = None,
+) -> Team:
+    """The team of an episode: policy, planner, the seeded prior around ``initial_targets`` and
+    the scenario's hazard map. Free of truth: given the targets' starting states, a simulated
+    episode and a node on robots build the same team."""
+    config = team_config(scenario)
+    planner = LeaguePlanner.from_spec(scenario.planner, fault_hook=fault_hook)
+    team = Team(
+        make_policy(policy_name, scenario, config, planner),
+        prior_estimate(scenario, initial_targets, seed),
+    )
+    team.belief.map_zones(zone_map(scenario))
+    return team

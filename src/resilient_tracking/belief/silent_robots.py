@@ -79,13 +79,9 @@ class SilentRobotWatch:
             for i in listeners:
                 belief.learn(i, zone)
             events.append(
-                Event(
-                    obs.step,
-                    robot,
-                    "zone_inferred",
-                    f"center=({fit.center[0]:.3f}, {fit.center[1]:.3f}) radius={fit.radius:.3f}"
-                    f" residual={fit.residual:.4f} arc={fit.arc:.2f} n={fit.n_samples}",
-                ),
+                Event.zone_inferred(
+                    obs.step, robot, fit.center, fit.radius, fit.residual, fit.arc, fit.n_samples
+                )
             )
         self._silent = {i for i, has_link in enumerate(linked) if not has_link}
         return events
@@ -120,4 +116,4 @@ class SilentRobotWatch:
         )
         for i in listeners:
             belief.learn(i, zone)
-        return [Event(obs.step, robot, "zone_suspected", f"at ({where[0]:.3f}, {where[1]:.3f})")]
+        return [Event.zone_suspected(obs.step, robot, where[0], where[1])]

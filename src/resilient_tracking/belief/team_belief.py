@@ -34,7 +34,7 @@ from resilient_tracking.belief.health import repair_covariances
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.silent_robots import SilentRobotWatch
-from resilient_tracking.events import TEAM, Event
+from resilient_tracking.events import Event
 from resilient_tracking.models.graph import components
 from resilient_tracking.observation import TeamObservation
 
@@ -133,14 +133,7 @@ class TeamBelief:
                     step,
                     r.describe(),
                 )
-                events.append(
-                    Event(
-                        step,
-                        TEAM,
-                        "covariance_repaired",
-                        f"league {self.leagues[k]} {r.describe()}",
-                    )
-                )
+                events.append(Event.covariance_repaired(step, self.leagues[k], r.describe()))
         return events
 
     def learn(self, robot: int, estimate: ZoneEstimate) -> None:
@@ -170,17 +163,10 @@ class TeamBelief:
                     estimate, self.estimates[other], criterion=self.ci_criterion
                 )
                 members = [i for i in league if old_of[i] == other]
-                events.append(
-                    Event(
-                        step,
-                        TEAM,
-                        "league_merge",
-                        f"robots {members} joined {league}; lambda={np.round(lambdas, 3).tolist()}",
-                    )
-                )
+                events.append(Event.league_merge(step, members, league, lambdas))
             if len(sources) == 1 and feeds[sources[0]] > 1:
                 estimate = estimate.copy()
-                events.append(Event(step, TEAM, "league_split", f"league {league} split off"))
+                events.append(Event.league_split(step, league))
             estimates.append(estimate)
         self.leagues = leagues
         self.estimates = estimates

@@ -24,9 +24,9 @@ import yaml
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.generator import stored_suite
+from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import apply_overrides
-from resilient_tracking.sim.folders import folder_name
 
 
 def default_scenario_dir() -> Path:

@@ -17,10 +17,10 @@ import pandas as pd
 from joblib import Parallel, delayed
 
 from resilient_tracking.experiments.summary import summarise_run
+from resilient_tracking.runs.reading import run_data
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.viz.io import run_data
 
 
 def summarise(scenario: Scenario, policy: str, seed: int) -> dict[str, Any]:

@@ -37,10 +37,10 @@ from resilient_tracking.experiments.generalization import (
 )
 from resilient_tracking.experiments.summary import STRAGGLER_DISTANCE, summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
+from resilient_tracking.runs.folders import write_text_atomic
+from resilient_tracking.runs.reading import RunData, load_run
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import overridden
-from resilient_tracking.sim.folders import write_text_atomic
-from resilient_tracking.viz.io import RunData, load_run
 from resilient_tracking.viz.sweeps import (
     BAND_METRICS,
     EFFORT_METRIC,

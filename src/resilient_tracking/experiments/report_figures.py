@@ -29,8 +29,8 @@ import pandas as pd
 from resilient_tracking import __version__
 from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task
 from resilient_tracking.experiments.sweep import run_dir
-from resilient_tracking.sim.folders import write_text_atomic
-from resilient_tracking.viz.io import RunData
+from resilient_tracking.runs.folders import write_text_atomic
+from resilient_tracking.runs.reading import RunData
 from resilient_tracking.viz.sweeps import (
     BAND_METRICS,
     EFFORT_METRIC,

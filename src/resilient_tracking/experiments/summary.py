@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.viz.io import RunData, attack_table
+from resilient_tracking.runs.reading import RunData, attack_table
 
 
 def survival_steps(team: pd.DataFrame, n_robots: int) -> int:
@@ -50,9 +50,7 @@ def robots_lost(events: pd.DataFrame) -> int:
     """Robots whose sensor or radio a permanent zone destroyed (attack events marked so)."""
     if events.empty:
         return 0
-    lost = events[
-        (events["event"] == "attack") & events["detail"].astype(str).str.contains("permanent")
-    ]
+    lost = events[(events["event"] == "attack") & (events["persistence"] == "permanent")]
     return int(lost["robot"].nunique())
 
 

@@ -1,7 +1,7 @@
 """Run many episodes and store each as it finishes; resume where an interrupted sweep stopped.
 
 A run lives in ``OUT/runs/<experiment>/<variant>/seed-NNN/``. It is written into a hidden
-staging folder beside its final place and renamed when complete (``sim.records.write_run``),
+staging folder beside its final place and renamed when complete (``runs.records.write_run``),
 so a run folder is either whole or absent, whatever kills the process. A run is skipped when
 its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed); a
 stale one is run again.
@@ -22,9 +22,9 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from resilient_tracking.experiments.catalog import Task
-from resilient_tracking.sim import folders
+from resilient_tracking.runs import folders
+from resilient_tracking.runs.records import EpisodeResult, write_run
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import EpisodeResult, write_run
 
 log = logging.getLogger(__name__)
 

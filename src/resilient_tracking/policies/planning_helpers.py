@@ -149,12 +149,12 @@ class PlanningPolicy(Policy):
             result = replace(result, controls=controls, success=False, fallback="safe")
             for i, action in zip(robots, actions, strict=True):
                 decision.events.append(
-                    Event(step, i, "solver_fallback", f"safe ({action}): {result.status}")
+                    Event.solver_fallback(step, i, "safe", result.status, action)
                 )
         elif result.fallback:
             for i in robots:
                 decision.events.append(
-                    Event(step, i, "solver_fallback", f"{result.fallback}: {result.status}")
+                    Event.solver_fallback(step, i, result.fallback, result.status)
                 )
         decision.plans.append(result)
         return controls

@@ -4,7 +4,12 @@ It subscribes to each robot's pose (``/cfN/pose``), to the synthesized observati
 (``/rtrack/observation``) and, for the run tables only, to the targets' poses. For each new
 observation it runs ``Team.step``, clips the commands to the robots' limits and the workspace
 (as the simulator does), publishes one velocity setpoint per robot and the belief for RViz, and
-records the step with the same recorder as ``rtrack run``.
+records the step with the same team recorder as ``rtrack run``; the targets' poses, the truth
+of the run tables, go to a truth recorder of their own.
+
+The node never imports the simulated world: the targets' starting states (the team's prior is
+drawn around them) and the true zones (for plots only) are handed to it by whoever starts it
+(``rtrack node`` takes them from ``sim.episode.start_truth``).
 
 Whatever goes wrong gives a hold-position command and a logged warning, never a crash: a robot
 pose older than ``pose_timeout``, no observation for ``observation_timeout`` (the world node is
@@ -22,11 +27,12 @@ import logging
 import threading
 import time
 from collections import OrderedDict, deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 from cyclonedds.idl import IdlStruct
 
+from resilient_tracking.models.robot_motion import clip_velocities
 from resilient_tracking.ros2 import msgs
 from resilient_tracking.ros2.bag import BagRecorder
 from resilient_tracking.ros2.convert import (
@@ -48,11 +54,12 @@ from resilient_tracking.ros2.transport import (
     sensor_data_qos,
     take,
 )
+from resilient_tracking.runs.manifest import episode_manifest
+from resilient_tracking.runs.records import EpisodeResult, join_tables
+from resilient_tracking.runs.team_recorder import TeamRecorder
+from resilient_tracking.runs.truth_recorder import TruthRecorder, ZoneTruth
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.sim.episode import EpisodeRecorder, build_team, episode_manifest
-from resilient_tracking.sim.records import EpisodeResult
-from resilient_tracking.world.targets import TargetTruth
-from resilient_tracking.world.world import clip_velocities, make_zones
+from resilient_tracking.team import build_team
 
 log = logging.getLogger(__name__)
 
@@ -96,7 +103,12 @@ class _Body:
 
 
 class TrackerNode:
-    """Runs the team of ``scenario`` against DDS topics; :meth:`run` returns the run's tables."""
+    """Runs the team of ``scenario`` against DDS topics; :meth:`run` returns the run's tables.
+
+    ``initial_targets`` are the targets' starting states (N, 4) ``[px, py, vx, vy]``, around
+    which the team's prior is drawn with ``seed``; ``zones`` the true zones recorded in the
+    zones table for plots (none: an empty table).
+    """
 
     def __init__(
         self,
@@ -104,22 +116,23 @@ class TrackerNode:
         seed: int,
         policy: str,
         settings: NodeSettings,
+        initial_targets: np.ndarray,
         bag: BagRecorder | None = None,
+        zones: Sequence[ZoneTruth] = (),
     ):
         self.scenario, self.seed, self.policy, self.settings = scenario, seed, policy, settings
         self.bag = bag
         self.dt = scenario.dt
-        initial = np.array([TargetTruth(t).state for t in scenario.targets])
-        self.team = build_team(scenario, policy, seed, initial)
+        self.team = build_team(scenario, policy, seed, np.asarray(initial_targets, dtype=float))
         #: the policy's planner; running free, it builds new league structures in the
         #: background (the robots take the safe action meanwhile) rather than miss periods
         self.planner = getattr(self.team.policy, "planner", None)
         if self.planner is not None and not settings.lockstep:
             self.planner.background_builds = True
-        # the zones' truth is recorded for plots only, as in `rtrack run`; the team never sees it
-        self.recorder = EpisodeRecorder(
-            len(scenario.robots), len(scenario.targets), make_zones(scenario, seed), scenario.steps
-        )
+        n_robots, n_targets, steps = len(scenario.robots), len(scenario.targets), scenario.steps
+        self.team_rows = TeamRecorder(n_robots, n_targets, steps)
+        # the targets' poses and the zones are recorded for plots only; the team never sees them
+        self.truth_rows = TruthRecorder(n_targets, steps, zones)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
         self.steps_done = 0
         self.holds = 0
@@ -195,7 +208,9 @@ class TrackerNode:
             # belief marker sets replaced by a newer one before they were written (free running)
             "markers_dropped": self._belief_out.dropped if self._belief_out is not None else 0,
         }
-        return self.recorder.result(manifest)
+        return EpisodeResult(
+            join_tables(self.team_rows.tables(), self.truth_rows.tables()), manifest
+        )
 
     def _loop(self, stop: threading.Event | None, progress: Callable[[int], object] | None) -> None:
         s = self.settings
@@ -282,8 +297,9 @@ class TrackerNode:
             self.hold(f"step {obs.step}: non-finite command")
             return False
         self._publish_commands(positions, applied, msg.header.stamp)
-        truth = np.concatenate([truth_xy, np.zeros_like(truth_xy)], axis=1)  # positions only
-        self.recorder.step(obs, out, applied, truth, self.team)
+        self.team_rows.step(obs, out, applied, self.team.belief)
+        estimate = self.team.belief.team_estimate().mean[:, :2]
+        self.truth_rows.step(obs.step, truth_xy, estimate)
         header = msgs.Header(stamp=msg.header.stamp, frame_id=self.settings.frame)
         view = BeliefView.of(self.team.belief, positions, out.decision.modes)
         altitude = self.settings.altitude

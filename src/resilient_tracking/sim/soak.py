@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from resilient_tracking.planning.nlp_cache import nlp_cache, solver_builds
+from resilient_tracking.runs.records import EpisodeResult
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.records import EpisodeResult
 
 log = logging.getLogger(__name__)
 

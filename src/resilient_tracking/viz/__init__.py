@@ -1,7 +1,7 @@
 """Figures made from saved run data (never from in-memory simulation objects).
 
-:func:`~resilient_tracking.viz.io.load_run` is the only place the tables of a run folder are
-read; the plotting functions take the resulting :class:`~resilient_tracking.viz.io.RunData`.
+:func:`~resilient_tracking.runs.reading.load_run` is the only place the tables of a run folder are
+read; the plotting functions take the resulting :class:`~resilient_tracking.runs.reading.RunData`.
 Figures are rendered with matplotlib's Agg canvas directly (no pyplot, no global state).
 
 - :func:`make_run_figures` — every per-run figure into ``run_dir/figures/``.
@@ -16,8 +16,8 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from resilient_tracking.runs.reading import RunData, attack_table, load_run
 from resilient_tracking.viz.curves import plot_metric_curves, wants_log_scale
-from resilient_tracking.viz.io import RunData, attack_table, load_run
 from resilient_tracking.viz.trajectories import (
     covariance_ellipse,
     known_zones_at,

@@ -13,7 +13,7 @@ from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from resilient_tracking.viz.io import load_run
+from resilient_tracking.runs.reading import load_run
 from resilient_tracking.viz.trajectories import plot_trajectory_map
 
 log = logging.getLogger(__name__)

@@ -1,7 +1,7 @@
 """Per-run metric curves: MSE, covariance trace, control effort and failed robots vs. time.
 
 Drawn from the saved ``team`` and ``events`` tables of a
-:class:`~resilient_tracking.viz.io.RunData`.
+:class:`~resilient_tracking.runs.reading.RunData`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
-from resilient_tracking.viz.io import RunData, attack_table
+from resilient_tracking.runs.reading import RunData, attack_table
 from resilient_tracking.viz.trajectories import COMM_COLOR, DPI, SENSING_COLOR
 
 logger = logging.getLogger(__name__)

@@ -1,6 +1,6 @@
 """Figures over many saved runs (docs/model.md §8): snapshots, mean ± 1 std bands, box plots.
 
-Inputs are :class:`~resilient_tracking.viz.io.RunData` read from run folders and the summary
+Inputs are :class:`~resilient_tracking.runs.reading.RunData` read from run folders and the summary
 table built from them, never objects of a live simulation.
 """
 
@@ -15,8 +15,8 @@ import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from resilient_tracking.runs.reading import RunData
 from resilient_tracking.viz.curves import wants_log_scale
-from resilient_tracking.viz.io import RunData
 from resilient_tracking.viz.trajectories import plot_trajectory_map
 
 log = logging.getLogger(__name__)

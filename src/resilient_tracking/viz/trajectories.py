@@ -1,6 +1,6 @@
 """Trajectory map of one run: truth vs. what the team knows, robots, targets and attacks.
 
-Everything is drawn from a :class:`~resilient_tracking.viz.io.RunData` (saved tables), never
+Everything is drawn from a :class:`~resilient_tracking.runs.reading.RunData` (saved tables), never
 from simulation objects. :func:`plot_trajectory_map` can draw into a caller's axes so that
 multi-panel snapshot figures (the map at several ``until_step`` values) reuse it.
 """
@@ -20,7 +20,7 @@ from matplotlib.colors import rgb_to_hsv, to_hex, to_rgb
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Ellipse, Rectangle
 
-from resilient_tracking.viz.io import RunData, attack_table
+from resilient_tracking.runs.reading import RunData, attack_table
 
 logger = logging.getLogger(__name__)
 

@@ -14,6 +14,7 @@ from typing import cast
 import numpy as np
 
 from resilient_tracking.models.geometry import row_norms
+from resilient_tracking.models.robot_motion import clip_velocities
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
@@ -36,27 +37,6 @@ def make_zones(scenario: Scenario, seed: int) -> list[TrueZone]:
     """The episode's zones with their true centres, drawn from the ``zone_centers`` stream."""
     centers_rng = stream(seed, "zone_centers")
     return [TrueZone(k, spec, centers_rng) for k, spec in enumerate(scenario.zones)]
-
-
-def clip_velocities(
-    positions: np.ndarray,
-    controls: np.ndarray,
-    u_max: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-    dt: float,
-) -> np.ndarray:
-    """Velocity bounds per component, then keep the next position inside the workspace.
-
-    A pure function of the robots' own positions, so a robot-side node can apply the same
-    clipping to its commands as the simulator does.
-    """
-    bound = u_max[:, None]
-    nan = np.isnan(controls)
-    u = np.where(nan, 0.0, controls) if nan.any() else controls  # ±inf: clipped below
-    u = np.minimum(np.maximum(u, -bound), bound)
-    nxt = np.minimum(np.maximum(positions + u * dt, lower), upper)
-    return (nxt - positions) / dt
 
 
 class World:

@@ -1,11 +1,10 @@
 """Tables of one episode and how they are written to a run folder.
 
-A run folder holds ``team.parquet`` (a row per step), ``robots.parquet`` (a row per robot per
-step), ``targets.parquet``, ``events.parquet``, ``zones.parquet`` (truth, for plots only),
-``knowledge.parquet`` (zone estimates as robots learn them), ``timing.parquet`` (planning wall
-time per step, the one table that is not reproducible bit for bit) and ``manifest.json``.
-The folder is written under a temporary name beside its destination and renamed into place when
-every file is complete, so a run folder is either complete or absent (never partial).
+A run folder holds one parquet file per table of :data:`~resilient_tracking.runs.schema.TABLES`
+(``team``, ``robots``, ``targets``, ``events``, ``zones``, ``knowledge``, ``timing``) and
+``manifest.json``. The folder is written under a temporary name beside its destination and
+renamed into place when every file is complete, so a run folder is either complete or absent
+(never partial).
 """
 
 from __future__ import annotations
@@ -22,29 +21,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.sim import folders
-
-#: Tables that are identical, bit for bit, for the same scenario and seed.
-TABLES = ("team", "robots", "targets", "events", "zones", "knowledge")
-#: Wall-clock measurements: the one table that differs between identical runs.
-TIMING = "timing"
-
-COLUMNS: dict[str, list[str]] = {
-    "events": ["step", "robot", "event", "detail"],
-    "knowledge": [
-        "step",
-        "robot",
-        "zone",
-        "kind",
-        "source",
-        "x",
-        "y",
-        "sigma_xx",
-        "sigma_xy",
-        "sigma_yy",
-        "size",
-    ],
-}
+from resilient_tracking.runs import folders
+from resilient_tracking.runs.schema import ALL_TABLES, TABLES
 
 
 @dataclass
@@ -112,11 +90,35 @@ class ColumnTable:
         return pd.DataFrame({name: c[: self._rows].copy() for name, c in self._columns.items()})
 
 
-def frame(rows: list[dict[str, Any]], name: str) -> pd.DataFrame:
-    """A table from row dicts; empty tables keep their declared columns."""
-    if not rows:
-        return pd.DataFrame({c: pd.Series(dtype="object") for c in COLUMNS.get(name, [])})
-    return pd.DataFrame(rows)
+def join_sides(name: str, team: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """Table ``name`` from the part the team recorded and the part truth recorded.
+
+    Columns come in declared order, each from the side that records it; the key columns
+    (``step``, ``target``...) are in both parts and must agree row for row.
+    """
+    table = TABLES[name]
+    for key in table.keys:
+        if not np.array_equal(team[key].to_numpy(), truth[key].to_numpy()):
+            raise ValueError(f"{name}: the team's and truth's rows differ in {key!r}")
+    columns = {
+        c.name: (team if c.side == "team" or c.name in table.keys else truth)[c.name]
+        for c in table.columns
+    }
+    return pd.DataFrame(columns)
+
+
+def join_tables(
+    team: dict[str, pd.DataFrame], truth: dict[str, pd.DataFrame]
+) -> dict[str, pd.DataFrame]:
+    """Every table of a run (in :data:`~resilient_tracking.runs.schema.ALL_TABLES` order) from
+    the parts the team and truth recorded (:func:`join_sides` where both recorded one)."""
+    tables = {}
+    for name in ALL_TABLES:
+        if name in team and name in truth:
+            tables[name] = join_sides(name, team[name], truth[name])
+        else:
+            tables[name] = team[name] if name in team else truth[name]
+    return tables
 
 
 def is_run_folder(path: Path) -> bool:
@@ -136,12 +138,12 @@ def write_run(
     Everything is written into a hidden staging folder beside ``out_dir``; ``finish`` (e.g. the
     figures) is then called with the staging folder, and only when all of it succeeded is the
     staging folder renamed to ``out_dir``. The manifest records the SHA-256 of every file
-    written (:func:`~resilient_tracking.sim.folders.seal`).
+    written (:func:`~resilient_tracking.runs.folders.seal`).
 
     An existing ``out_dir`` is replaced whole only if this tool wrote everything in it. If it
     holds anything else, :class:`FileExistsError` is raised before writing, unless
     ``overwrite``: then the run's files are moved in beside the others, which are kept. The
-    folder is locked while written (:class:`~resilient_tracking.sim.folders.FolderBusyError`
+    folder is locked while written (:class:`~resilient_tracking.runs.folders.FolderBusyError`
     if another process holds it), and staging folders of killed writes are removed first.
     """
     out = Path(out_dir)
@@ -150,7 +152,7 @@ def write_run(
         foreign = folders.check_out_folder(out, overwrite)
         staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.", suffix=".partial"))
         try:
-            for name in (*TABLES, TIMING):
+            for name in ALL_TABLES:
                 result.tables[name].to_parquet(staging / f"{name}.parquet", index=False)
             _write_manifest(staging, result.manifest)
             if finish is not None:

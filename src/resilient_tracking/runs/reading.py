@@ -1,9 +1,9 @@
-"""Reading a saved run folder: the single place where figures read parquet.
+"""Reading a saved run folder: the single place where figures and summaries read parquet.
 
-A run folder holds ``team``, ``robots``, ``targets``, ``events``, ``zones`` and ``knowledge``
-tables (parquet) plus ``manifest.json``. :func:`load_run` reads them into a :class:`RunData`,
-checking that every table has the columns the plots use, so that a malformed folder fails with
-an error naming the table and the missing columns instead of a ``KeyError`` deep in a plot.
+:func:`load_run` reads a run folder's tables (:data:`~resilient_tracking.runs.schema.TABLES`,
+all but ``timing``) and ``manifest.json`` into a :class:`RunData`, checking every table against
+the declaration, so that a malformed or old folder fails with an error naming the table and the
+missing columns instead of a ``KeyError`` deep in a plot.
 """
 
 from __future__ import annotations
@@ -16,42 +16,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.sim.folders import read_manifest
-from resilient_tracking.sim.records import COLUMNS, EpisodeResult
+from resilient_tracking.runs.folders import read_manifest
+from resilient_tracking.runs.records import EpisodeResult
+from resilient_tracking.runs.schema import REPRODUCIBLE, TABLES
 
 logger = logging.getLogger(__name__)
-
-#: Columns each table must have (extra columns are kept and ignored).
-REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
-    "team": (
-        "step",
-        "time",
-        "mse",
-        "trace",
-        "effort",
-        "n_sensing_failed",
-        "n_comm_failed",
-    ),
-    "robots": ("step", "robot", "x", "y", "sensing_ok", "comm_ok"),
-    "targets": ("step", "target", "x", "y", "est_x", "est_y"),
-    "events": tuple(COLUMNS["events"]),
-    "zones": (
-        "zone",
-        "kind",
-        "mu_x",
-        "mu_y",
-        "sigma_xx",
-        "sigma_xy",
-        "sigma_yy",
-        "size",
-        "true_x",
-        "true_y",
-    ),
-    "knowledge": tuple(COLUMNS["knowledge"]),
-}
-
-#: Tables that may be absent from the folder (read as empty).
-OPTIONAL_TABLES = frozenset({"events", "knowledge"})
 
 
 @dataclass(frozen=True)
@@ -142,12 +111,13 @@ class RunData:
 
 
 def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
-    path = run_dir / f"{name}.parquet"
-    required = REQUIRED_COLUMNS[name]
+    table = TABLES[name]
+    path = run_dir / table.file
+    required = table.names
     if not path.exists():
-        if name in OPTIONAL_TABLES:
+        if table.optional:
             logger.info("%s not found in %s; using an empty table", path.name, run_dir)
-            return pd.DataFrame({c: pd.Series(dtype=object) for c in required})
+            return table.empty_frame()
         raise FileNotFoundError(f"run folder {run_dir} has no {path.name}")
     try:
         df = pd.read_parquet(path)
@@ -160,7 +130,10 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
             for c in missing:
                 df[c] = pd.Series(dtype=object)
         else:
-            raise ValueError(f"{path}: missing columns {missing} (has {list(df.columns)})")
+            raise ValueError(
+                f"{path}: missing columns {missing} (has {list(df.columns)}): "
+                "not a run folder of this version; run it again"
+            )
     if "step" in df.columns and not df.empty:
         df = df.sort_values("step", kind="stable").reset_index(drop=True)
     return df
@@ -170,8 +143,8 @@ def load_run(run_dir: str | Path) -> RunData:
     """Read a run folder's tables and manifest.
 
     Raises ``FileNotFoundError`` when the folder, ``manifest.json`` or a required table is
-    missing, and ``ValueError`` when a non-empty table lacks a column the figures use.
-    ``events`` and ``knowledge`` may be absent or empty.
+    missing, and ``ValueError`` when a non-empty table lacks a declared column (a folder of an
+    older version). ``events`` and ``knowledge`` may be absent or empty.
     """
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
@@ -180,7 +153,7 @@ def load_run(run_dir: str | Path) -> RunData:
     if not manifest_path.exists():
         raise FileNotFoundError(f"run folder {run_dir} has no manifest.json")
     manifest = read_manifest(run_dir)  # a ValueError naming the file if it is broken
-    tables = {name: _read_table(run_dir, name) for name in REQUIRED_COLUMNS}
+    tables = {name: _read_table(run_dir, name) for name in REPRODUCIBLE}
     logger.debug(
         "loaded run %s: %s",
         run_dir,
@@ -191,18 +164,8 @@ def load_run(run_dir: str | Path) -> RunData:
 
 def run_data(result: EpisodeResult, name: str = "in-memory") -> RunData:
     """The :class:`RunData` of an episode that was not written to disk (``run_dir`` is ``name``)."""
-    tables = {table: result.tables[table] for table in REQUIRED_COLUMNS}
+    tables = {table: result.tables[table] for table in REPRODUCIBLE}
     return RunData(run_dir=Path(name), manifest=dict(result.manifest), **tables)
-
-
-def attack_kind(detail: object) -> str:
-    """Failure kind of an attack event from its ``detail`` ("sensing ..." / "comm ...")."""
-    word = str(detail).strip().split(maxsplit=1)[0].lower() if detail else ""
-    if word.startswith("sens"):
-        return "sensing"
-    if word.startswith("comm"):
-        return "comm"
-    return "other"
 
 
 def attack_table(run: RunData, until_step: int | None = None) -> pd.DataFrame:
@@ -219,7 +182,7 @@ def attack_table(run: RunData, until_step: int | None = None) -> pd.DataFrame:
         {
             "step": ev["step"].to_numpy(dtype=np.int64),
             "robot": ev["robot"].to_numpy(dtype=np.int64),
-            "kind": [attack_kind(d) for d in ev["detail"]],
+            "kind": ev["kind"].astype(str).to_numpy(),
         }
     )
     if out.empty or run.robots.empty:

@@ -5,6 +5,9 @@ Rules (docs/reliability.md §8):
 - a run folder's ``manifest.json`` lists every file the run wrote with its SHA-256
   (``files``) and carries a checksum of the manifest itself (``manifest_sha256``), so a stored
   run whose tables were damaged or whose manifest was edited is recognised (:func:`verify`);
+- a stored run whose tables lack columns of the declaration
+  (:data:`~resilient_tracking.runs.schema.TABLES`) was written by an older version: it is
+  reported as old by :func:`verify` (and run again by a sweep);
 - a folder is replaced whole only when everything in it was written by this tool; anything
   else in it (a user's ``notes.txt``) makes the write refuse, unless ``overwrite`` is given, and
   then the run's files are written beside the user's, which are never deleted
@@ -29,16 +32,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from resilient_tracking.runs.schema import TABLE_FILES, TABLES
+
 MANIFEST = "manifest.json"
 FIGURES = "figures"
 #: Files that commands other than ``run`` may add to a run folder (``rtrack animate``).
 LATER_FILES = ("figures/animation.gif", "figures/animation.mp4")
-
-#: Tables every run folder holds (mirrors ``sim.records.TABLES`` + ``timing``).
-_TABLE_FILES = tuple(
-    f"{name}.parquet"
-    for name in ("team", "robots", "targets", "events", "zones", "knowledge", "timing")
-)
 
 
 class FolderBusyError(RuntimeError):
@@ -106,10 +105,38 @@ def read_manifest(folder: Path) -> dict[str, Any]:
 def verify(folder: Path, tables_only: bool = True) -> str | None:
     """Why the stored run in ``folder`` cannot be trusted, or None if it can.
 
-    Checks that the manifest is intact (its checksum) and that each table (every listed file
-    if not ``tables_only``) has the recorded SHA-256. A folder written before checksums were
-    recorded is checked by reading each table's parquet footer.
+    Checks that the manifest is intact (its checksum), that each table (every listed file
+    if not ``tables_only``) has the recorded SHA-256, and that every table has the declared
+    columns (else the run is old: written before a column was added). A folder written before
+    checksums were recorded is checked by reading each table's parquet footer.
     """
+    damage = _verify_files(folder, tables_only)
+    return damage if damage is not None else old_tables(folder)
+
+
+def old_tables(folder: Path) -> str | None:
+    """Why the tables in ``folder`` are not those this version writes (declared columns
+    missing: a run written by an older version), or None when they are."""
+    import pyarrow.parquet as pq
+
+    for table in TABLES.values():
+        path = folder / table.file
+        if table.optional and not path.exists():
+            continue
+        try:
+            present = set(pq.read_schema(path).names)
+        except Exception as err:  # any reader error means the table cannot be used
+            return f"{path}: unreadable ({type(err).__name__})"
+        missing = [c for c in table.names if c not in present]
+        if missing:
+            return (
+                f"{path}: an old run, written before the {table.name} table had the columns "
+                f"{', '.join(missing)}"
+            )
+    return None
+
+
+def _verify_files(folder: Path, tables_only: bool) -> str | None:
     try:
         manifest = read_manifest(folder)
     except (OSError, ValueError) as err:
@@ -134,7 +161,7 @@ def verify(folder: Path, tables_only: bool = True) -> str | None:
 def _verify_legacy(folder: Path) -> str | None:
     import pyarrow.parquet as pq
 
-    for name in _TABLE_FILES:
+    for name in TABLE_FILES:
         path = folder / name
         try:
             pq.read_metadata(path)
@@ -149,12 +176,12 @@ def _ours(folder: Path) -> set[str]:
     try:
         files = read_manifest(folder).get("files")
     except (OSError, ValueError):
-        return ours | set(_TABLE_FILES)  # a run folder whose manifest broke
+        return ours | set(TABLE_FILES)  # a run folder whose manifest broke
     if isinstance(files, dict):
         return ours | {str(name) for name in files}
     # written before files were listed: the tables and the figures
     figures = {f"{FIGURES}/{p.name}" for p in (folder / FIGURES).glob("*.png")}
-    return ours | set(_TABLE_FILES) | figures
+    return ours | set(TABLE_FILES) | figures
 
 
 def foreign_entries(folder: Path) -> list[str]:

@@ -1,0 +1,122 @@
+"""Fingerprints of the reproducible run tables, to prove a refactor changed no result.
+
+``python -m resilient_tracking.runs.fingerprints --write`` records the SHA-256 of every
+bit-for-bit table (:data:`~resilient_tracking.runs.schema.REPRODUCIBLE`) of a fixed set of runs
+(every shipped paper and benchmark scenario with every policy) into the golden file
+(``tests/data/golden_tables.json`` of the repository); without ``--write`` it re-runs them and
+prints ``same`` or ``DIFFERENT <tables>`` per run. ``tests/test_golden_tables.py`` compares
+the same way. Every run uses the paper's one-step planner program.
+
+Bit for bit holds on one kind of CPU: OpenBLAS picks its kernels by CPU (and NumPy its SIMD
+loops), and an AVX-512 kernel rounds differently from an AVX2 one. So the fingerprints are
+taken with both pinned (:data:`~resilient_tracking.sim.kernels.PINNED_ENV`, set before NumPy
+loads: the command re-runs itself with it), which any x86-64 CPU with AVX2 and FMA runs alike.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from resilient_tracking import scenarios
+from resilient_tracking.runs.schema import REPRODUCIBLE
+from resilient_tracking.scenario import Scenario, load_scenario
+from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.kernels import PINNED_ENV, pinned
+
+MODULE = "resilient_tracking.runs.fingerprints"
+
+#: The golden file, relative to the repository's root.
+GOLDEN = Path("tests") / "data" / "golden_tables.json"
+SHIPPED = (
+    "sensing-temp",
+    "sensing-perm",
+    "comm-temp",
+    "comm-perm",
+    "combined-temp",
+    "combined-perm",
+    "bench-risk",
+    "bench-scale",
+    "bench-complex",
+)
+SEED = 7
+#: (scenario, policy) pairs fingerprinted, each over the scenario's full length at SEED.
+RUNS: list[tuple[str, str]] = [
+    (name, policy) for name in SHIPPED for policy in ("failure_aware", "vanilla", "sog")
+]
+
+
+def table_hash(df: pd.DataFrame) -> str:
+    """SHA-256 over column names, dtypes and every value (row order matters)."""
+    h = hashlib.sha256()
+    h.update(repr([(c, str(t)) for c, t in df.dtypes.items()]).encode())
+    h.update(pd.util.hash_pandas_object(df, index=True).to_numpy().tobytes())
+    return h.hexdigest()
+
+
+def fingerprinted_scenario(name: str) -> Scenario:
+    """Shipped scenario ``name`` on the paper's one-step program, where the program is a
+    choice."""
+    data = load_scenario(scenarios.path(name)).model_dump(mode="python")
+    if "program" in data.get("planner", {}):
+        data["planner"]["program"] = "one_step"
+    return Scenario.model_validate(data)
+
+
+def fingerprints(runs: Sequence[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:
+    """``"<scenario>/<policy>"`` → table name → fingerprint, for each of ``runs``."""
+    out: dict[str, dict[str, str]] = {}
+    for name, policy in runs:
+        result = run_episode(fingerprinted_scenario(name), policy=policy, seed=SEED)
+        out[f"{name}/{policy}"] = {t: table_hash(result.tables[t]) for t in REPRODUCIBLE}
+    return out
+
+
+def differences(found: dict[str, dict[str, str]], golden: dict[str, dict[str, str]]) -> list[str]:
+    """One line per run: ``<run>: same`` or ``<run>: DIFFERENT <tables>``."""
+    lines = []
+    for key, tables in found.items():
+        diff = [t for t in tables if golden.get(key, {}).get(t) != tables[t]]
+        lines.append(f"{key}: {'same' if not diff else 'DIFFERENT ' + ', '.join(diff)}")
+    return lines
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """The command line; re-runs itself with the kernels pinned first."""
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    if not pinned():  # re-run with the kernels pinned (replaces this process)
+        command = [sys.executable, "-m", MODULE, *args_list]
+        os.execve(sys.executable, command, {**os.environ, **PINNED_ENV})
+    parser = argparse.ArgumentParser(prog=f"python -m {MODULE}", description=__doc__)
+    parser.add_argument("--golden", type=Path, default=GOLDEN, help="the golden file")
+    parser.add_argument("--write", action="store_true", help="record into the golden file")
+    parser.add_argument("--json", action="store_true", help="print the fingerprints as JSON")
+    parser.add_argument(
+        "--policy",
+        choices=sorted({policy for _, policy in RUNS}),
+        help="only the runs of this policy (with --write: re-record only their entries)",
+    )
+    args = parser.parse_args(args_list)
+    found = fingerprints([r for r in RUNS if args.policy in (None, r[1])])
+    if args.json:
+        print(json.dumps(found))
+        return
+    golden_path: Path = args.golden
+    if args.write:
+        recorded = json.loads(golden_path.read_text()) if golden_path.exists() else {}
+        recorded.update(found)
+        golden_path.write_text(json.dumps(recorded, indent=1, sort_keys=True) + "\n")
+        print(f"wrote {golden_path}")
+        return
+    print("\n".join(differences(found, json.loads(golden_path.read_text()))))
+
+
+if __name__ == "__main__":
+    main()

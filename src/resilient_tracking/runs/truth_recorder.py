@@ -1,0 +1,105 @@
+"""Truth's side of a run's tables: the targets' true positions, the zones' drawn centres, and
+the team estimate's error against truth (``mse``, docs/model.md §8).
+
+Only the place that holds truth feeds it (the episode loop; a node given the targets' poses);
+the team never sees these columns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Protocol
+
+import numpy as np
+import pandas as pd
+
+from resilient_tracking.runs.records import ColumnTable
+from resilient_tracking.runs.schema import TARGETS, TEAM, ZONES
+from resilient_tracking.sim.metrics import mse
+
+
+class ZoneSpecTruth(Protocol):
+    """What the zones table needs of a zone's declaration."""
+
+    @property
+    def name(self) -> str | None:
+        """The scenario's name for the zone, if it gave one."""
+
+    @property
+    def persistence(self) -> str:
+        """``temporary`` or ``permanent``."""
+
+
+class ZoneTruth(Protocol):
+    """What the zones table needs of a true zone (a ``world.zones.TrueZone``)."""
+
+    @property
+    def id(self) -> int:
+        """The zone's id."""
+
+    @property
+    def spec(self) -> ZoneSpecTruth:
+        """The zone as the scenario declares it."""
+
+    @property
+    def kind(self) -> str:
+        """``sensing`` or ``comm``."""
+
+    @property
+    def mu(self) -> np.ndarray:
+        """Prior mean of the centre (2,)."""
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Prior covariance of the centre (2, 2)."""
+
+    @property
+    def size(self) -> float:
+        """Sensing: the radius; comm: the jamming strength."""
+
+    @property
+    def center(self) -> np.ndarray:
+        """The drawn true centre (2,)."""
+
+
+def zone_table(zones: Sequence[ZoneTruth]) -> pd.DataFrame:
+    """The zones table: one row per true zone (declared columns, all ``object``, if none)."""
+    if not zones:
+        return ZONES.empty_frame()
+    table = ColumnTable(ZONES.numpy_dtypes(), len(zones))
+    for z in zones:
+        table.append_row(
+            zone=z.id,
+            name=z.spec.name or f"{z.kind[0].upper()}{z.id}",
+            kind=z.kind,
+            persistence=z.spec.persistence,
+            mu_x=z.mu[0],
+            mu_y=z.mu[1],
+            sigma_xx=z.sigma[0, 0],
+            sigma_xy=z.sigma[0, 1],
+            sigma_yy=z.sigma[1, 1],
+            size=z.size,
+            true_x=z.center[0],
+            true_y=z.center[1],
+        )
+    return table.frame()
+
+
+class TruthRecorder:
+    """Rows of truth's columns: the targets' true positions and the MSE of the team estimate."""
+
+    def __init__(self, n_targets: int, steps: int, zones: Sequence[ZoneTruth] = ()):
+        self.team = ColumnTable(TEAM.numpy_dtypes("truth"), steps)
+        self.targets = ColumnTable(TARGETS.numpy_dtypes("truth"), steps * n_targets)
+        self.zones = zone_table(zones)
+
+    def step(self, step: int, truth: np.ndarray, estimate: np.ndarray) -> None:
+        """Record step ``step``: true positions ``truth`` (N, 2) and the team's estimated
+        positions ``estimate`` (N, 2) of the same step."""
+        self.team.append_row(step=step, mse=mse(estimate, truth))
+        n = len(truth)
+        self.targets.append(n, step=step, target=np.arange(n), x=truth[:, 0], y=truth[:, 1])
+
+    def tables(self) -> dict[str, pd.DataFrame]:
+        """Truth's part of the team and targets tables, and the zones table."""
+        return {"team": self.team.frame(), "targets": self.targets.frame(), "zones": self.zones}
