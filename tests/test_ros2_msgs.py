@@ -117,7 +117,7 @@ def test_observation_survives_the_message_exactly() -> None:
     msg = msgs.TeamObservation.deserialize(
         observation_to_msg(obs, step_stamp(1, 0.1), "w").serialize()
     )
-    back = observation_from_msg(msg, obs.positions, obs.measurements.shape[1])
+    back = observation_from_msg(msg, obs.positions, obs.measurements.shape[1], 2)
     np.testing.assert_array_equal(back.measurements, obs.measurements)  # NaN where unmeasured
     np.testing.assert_array_equal(back.links, obs.links)
     assert back.time == obs.time and back.step == obs.step
@@ -150,7 +150,7 @@ def test_malformed_observation_names_the_field(change: dict, field: str) -> None
     obs = World(scenario, 1).observe()
     msg = dataclasses.replace(observation_to_msg(obs, step_stamp(0, 0.1), "w"), **change)
     with pytest.raises(MessageError, match=field):
-        observation_from_msg(msg, obs.positions, len(scenario.targets))
+        observation_from_msg(msg, obs.positions, len(scenario.targets), 2)
 
 
 def test_commands_and_topic_names() -> None:

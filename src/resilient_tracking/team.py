@@ -108,6 +108,12 @@ class Team:
                 f"TeamObservation.measurements: the team tracks {self.n_targets} targets, "
                 f"got {obs.n_targets}"
             )
+        dim = self.policy.config.sensor.DIM
+        if obs.measurement_dim != dim:
+            raise ValueError(
+                f"TeamObservation.measurements: the team's sensor measures {dim} channel(s), "
+                f"got {obs.measurement_dim}"
+            )
         events = [
             Event(
                 obs.step,

@@ -264,7 +264,8 @@ class TrackerNode:
 
     def _step(self, msg: msgs.TeamObservation, positions: np.ndarray, truth_xy: np.ndarray) -> bool:
         try:
-            obs = observation_from_msg(msg, positions, len(self.targets))
+            dim = self.team.policy.config.sensor.DIM
+            obs = observation_from_msg(msg, positions, len(self.targets), dim)
         except MessageError as err:
             self._drop(err)
             return False
