@@ -80,6 +80,8 @@ class Team:
             silent_robot_watch=policy.silent_robot_watch,
         )
         self.n_targets = int(initial_estimate.mean.shape[0])
+        #: channels of one measurement of the team's sensor (its ``DIM``)
+        self.measurement_dim = config.sensor.DIM
 
     @classmethod
     def from_scenario(
@@ -108,11 +110,10 @@ class Team:
                 f"TeamObservation.measurements: the team tracks {self.n_targets} targets, "
                 f"got {obs.n_targets}"
             )
-        dim = self.policy.config.sensor.DIM
-        if obs.measurement_dim != dim:
+        if obs.measurement_dim != self.measurement_dim:
             raise ValueError(
-                f"TeamObservation.measurements: the team's sensor measures {dim} channel(s), "
-                f"got {obs.measurement_dim}"
+                f"TeamObservation.measurements: the team's sensor measures "
+                f"{self.measurement_dim} channel(s), got {obs.measurement_dim}"
             )
         events = [
             Event(

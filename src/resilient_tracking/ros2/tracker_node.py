@@ -264,8 +264,7 @@ class TrackerNode:
 
     def _step(self, msg: msgs.TeamObservation, positions: np.ndarray, truth_xy: np.ndarray) -> bool:
         try:
-            dim = self.team.policy.config.sensor.DIM
-            obs = observation_from_msg(msg, positions, len(self.targets), dim)
+            obs = observation_from_msg(msg, positions, len(self.targets), self.team.measurement_dim)
         except MessageError as err:
             self._drop(err)
             return False
