@@ -134,6 +134,20 @@ def test_observation_survives_the_message_exactly() -> None:
         np.testing.assert_array_equal(a.clue.sigma, b.clue.sigma)
 
 
+def test_a_one_channel_observation_survives_the_message_exactly() -> None:
+    obs = World(shipped("bearing-only"), 2).observe()
+    assert obs.measurements.shape == (3, 3, 1)
+    obs.measurements[0, 1] = np.nan
+    msg = msgs.TeamObservation.deserialize(
+        observation_to_msg(obs, step_stamp(0, 0.1), "w").serialize()
+    )
+    assert len(msg.measurements) == 9
+    back = observation_from_msg(msg, obs.positions, 3, 1)
+    np.testing.assert_array_equal(back.measurements, obs.measurements)
+    with pytest.raises(MessageError, match="observation.measurements: expected 18 values"):
+        observation_from_msg(msg, obs.positions, 3, 2)  # a range-bearing team's size
+
+
 @pytest.mark.parametrize(
     ("change", "field"),
     [

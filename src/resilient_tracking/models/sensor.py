@@ -185,7 +185,7 @@ SENSORS: Registry[type[MeasurementModel]] = Registry(
     "sensor",
     "resilient_tracking.sensors",
     MeasurementModel,
-    builtins=("resilient_tracking.models.sensor",),
+    builtins=("resilient_tracking.models.sensor", "resilient_tracking.models.bearing_only"),
 )
 
 #: Class decorator registering a measurement model under a name: ``@register_sensor("sonar")``.
