@@ -117,7 +117,7 @@ def test_observation_survives_the_message_exactly() -> None:
     msg = msgs.TeamObservation.deserialize(
         observation_to_msg(obs, step_stamp(1, 0.1), "w").serialize()
     )
-    back = observation_from_msg(msg, obs.positions, obs.measurements.shape[1])
+    back = observation_from_msg(msg, obs.positions, obs.measurements.shape[1], 2)
     np.testing.assert_array_equal(back.measurements, obs.measurements)  # NaN where unmeasured
     np.testing.assert_array_equal(back.links, obs.links)
     assert back.time == obs.time and back.step == obs.step
@@ -132,6 +132,20 @@ def test_observation_survives_the_message_exactly() -> None:
             b.clue.size,
         )
         np.testing.assert_array_equal(a.clue.sigma, b.clue.sigma)
+
+
+def test_a_one_channel_observation_survives_the_message_exactly() -> None:
+    obs = World(shipped("bearing-only"), 2).observe()
+    assert obs.measurements.shape == (3, 3, 1)
+    obs.measurements[0, 1] = np.nan
+    msg = msgs.TeamObservation.deserialize(
+        observation_to_msg(obs, step_stamp(0, 0.1), "w").serialize()
+    )
+    assert len(msg.measurements) == 9
+    back = observation_from_msg(msg, obs.positions, 3, 1)
+    np.testing.assert_array_equal(back.measurements, obs.measurements)
+    with pytest.raises(MessageError, match="observation.measurements: expected 18 values"):
+        observation_from_msg(msg, obs.positions, 3, 2)  # a range-bearing team's size
 
 
 @pytest.mark.parametrize(
@@ -150,7 +164,7 @@ def test_malformed_observation_names_the_field(change: dict, field: str) -> None
     obs = World(scenario, 1).observe()
     msg = dataclasses.replace(observation_to_msg(obs, step_stamp(0, 0.1), "w"), **change)
     with pytest.raises(MessageError, match=field):
-        observation_from_msg(msg, obs.positions, len(scenario.targets))
+        observation_from_msg(msg, obs.positions, len(scenario.targets), 2)
 
 
 def test_commands_and_topic_names() -> None:

@@ -33,6 +33,7 @@ _PUBLIC = {
     "parse_scenario": "resilient_tracking.scenario",
     "HazardSpec": "resilient_tracking.scenario",
     "MotionSpec": "resilient_tracking.scenario",
+    "SensorSpec": "resilient_tracking.scenario",
     # the robots' side of the loop
     "Team": "resilient_tracking.team",
     "TeamStep": "resilient_tracking.team",
@@ -53,7 +54,10 @@ _PUBLIC = {
     "make_policy": "resilient_tracking.build",
     "check_policy": "resilient_tracking.policy_check",
     "PolicyReport": "resilient_tracking.policy_check",
-    # hazard models and target motions
+    # sensors, hazard models and target motions
+    "MeasurementModel": "resilient_tracking.models.sensor",
+    "SENSORS": "resilient_tracking.models.sensor",
+    "register_sensor": "resilient_tracking.models.sensor",
     "HazardModel": "resilient_tracking.world.hazard_model",
     "HAZARDS": "resilient_tracking.world.hazard_model",
     "TargetMotion": "resilient_tracking.world.target_motion",
@@ -74,14 +78,17 @@ __all__ = [
     "HazardModel",
     "HazardSpec",
     "MOTIONS",
+    "MeasurementModel",
     "MotionSpec",
     "NoParams",
     "POLICIES",
     "PlanningPolicy",
     "Policy",
     "PolicyReport",
+    "SENSORS",
     "Scenario",
     "ScenarioError",
+    "SensorSpec",
     "TargetEstimate",
     "TargetMotion",
     "Team",
@@ -96,6 +103,7 @@ __all__ = [
     "make_policy",
     "parse_scenario",
     "register_policy",
+    "register_sensor",
     "run_episode",
 ]
 
@@ -119,6 +127,7 @@ if TYPE_CHECKING:
     from resilient_tracking.belief.team_belief import TeamBelief
     from resilient_tracking.build import make_policy
     from resilient_tracking.events import Event
+    from resilient_tracking.models.sensor import SENSORS, MeasurementModel, register_sensor
     from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
     from resilient_tracking.policies.base import (
         POLICIES,
@@ -136,6 +145,7 @@ if TYPE_CHECKING:
         MotionSpec,
         Scenario,
         ScenarioError,
+        SensorSpec,
         load_scenario,
         parse_scenario,
     )

@@ -47,7 +47,8 @@ class TeamObservation:
     time: float
     #: (M, 2) robot positions (own positions; teammates are observable without radio).
     positions: NDArray[np.float64]
-    #: (M, N, 2) range/bearing measurements; NaN where a robot did not measure a target.
+    #: (M, N, D) measurements, D channels of the team's sensor (its ``DIM``; ``[range, bearing]``
+    #: for the paper's); NaN where a robot did not measure a target.
     measurements: NDArray[np.float64]
     #: (M,) whether each robot's sensor works (a robot knows when its sensor is out).
     sensing_ok: NDArray[np.bool_]
@@ -90,10 +91,10 @@ class TeamObservation:
             raise ValueError("TeamObservation.positions: must be finite")
         set_(self, "positions", positions)
         measurements = _array("measurements", self.measurements, float)
-        if measurements.ndim != 3 or measurements.shape[0] != m or measurements.shape[2] != 2:
+        if measurements.ndim != 3 or measurements.shape[0] != m or measurements.shape[2] < 1:
             raise ValueError(
-                f"TeamObservation.measurements: expected shape (M={m}, N, 2) of "
-                f"[range, bearing], got {measurements.shape}"
+                f"TeamObservation.measurements: expected shape (M={m}, N, D), D the channels of "
+                f"the sensor ([range, bearing]: 2), got {measurements.shape}"
             )
         set_(self, "measurements", measurements)
         for name in ("sensing_ok", "comm_ok"):
@@ -151,6 +152,11 @@ class TeamObservation:
     def n_targets(self) -> int:
         """Number of targets ``N``."""
         return int(self.measurements.shape[1])
+
+    @property
+    def measurement_dim(self) -> int:
+        """Channels ``D`` of one measurement (the sensor's ``DIM``)."""
+        return int(self.measurements.shape[2])
 
 
 def _array(name: str, value: object, dtype: type) -> np.ndarray:

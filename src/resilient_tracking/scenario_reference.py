@@ -29,6 +29,7 @@ from resilient_tracking.scenario import (
     MotionSpec,
     PolicySpec,
     Scenario,
+    SensorSpec,
 )
 
 
@@ -53,8 +54,12 @@ def _is_union(annotation: Any) -> bool:
 
 
 def _builtin_specs(base: type[BaseModel]) -> list[type[BaseModel]] | None:
-    """The ``Spec`` of every built-in of a registry-selected field (hazard models, target
-    motions), in registration order; ``None`` for any other model."""
+    """The ``Spec`` of every built-in of a registry-selected field (sensors, hazard models,
+    target motions), in registration order; ``None`` for any other model."""
+    if base is SensorSpec:
+        from resilient_tracking.models.sensor import SENSORS
+
+        return [SENSORS.get(n).Spec for n in SENSORS.builtin_names()]
     if base is HazardSpec:
         from resilient_tracking.world.hazard_model import HAZARDS
 
@@ -228,6 +233,7 @@ def render() -> str:
         "",
     ]
     seen: dict[tuple[type[BaseModel], str], str] = {}
+    listed: set[tuple[type[BaseModel], str, str]] = set()
     for section in sections():
         title = f"`{section.path}`" if section.path else "Top level"
         if section.variant:
@@ -235,8 +241,9 @@ def render() -> str:
         doc = (section.model.__doc__ or "").strip().split("\n\n")[0]
         doc = " ".join(doc.split())
         key = (section.model, section.variant)
-        if seen.get(key) == section.path:
-            continue  # a union's variant met again under another variant of its parent
+        if (*key, section.path) in listed:
+            continue  # met again under another variant of its parent (a zone's hazard, say)
+        listed.add((*key, section.path))
         first = seen.setdefault(key, section.path)
         parts += [f"## {title}", ""]
         if first != section.path:

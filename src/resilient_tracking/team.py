@@ -100,6 +100,8 @@ class Team:
         self.n_targets = int(initial_estimate.mean.shape[0])
         #: robot-steps whose control the policy got wrong (each one held position instead)
         self.invalid_controls = 0
+        #: channels of one measurement of the team's sensor (its ``DIM``)
+        self.measurement_dim = config.sensor.DIM
 
     @classmethod
     def from_scenario(
@@ -129,6 +131,11 @@ class Team:
             raise ValueError(
                 f"TeamObservation.measurements: the team tracks {self.n_targets} targets, "
                 f"got {obs.n_targets}"
+            )
+        if obs.measurement_dim != self.measurement_dim:
+            raise ValueError(
+                f"TeamObservation.measurements: the team's sensor measures "
+                f"{self.measurement_dim} channel(s), got {obs.measurement_dim}"
             )
         events = [
             Event.attack(

@@ -1,5 +1,5 @@
-"""Extended Kalman filter over independent targets with range-bearing measurements
-(docs/model.md §4).
+"""Extended Kalman filter over independent targets, measured through the team's sensor model
+(docs/model.md §4; the paper's is range-bearing).
 
 Prediction (paper, EKF prediction eq.): ``ŷ⁺ = A ŷ``, ``P⁺ = A P Aᵀ + Q`` per target.
 
@@ -9,10 +9,10 @@ stacked and linearised at the *predicted* target position, giving
     P⁻¹_{t+1|t+1} = P⁻¹_{t+1|t} + Σ_k H_kᵀ R_k⁻¹ H_k,
     ŷ_{t+1|t+1}   = ŷ_{t+1|t} + K z̃,   K z̃ = P_{t+1|t+1} Σ_k H_kᵀ R_k⁻¹ z̃_k,
 
-with ``H_k`` the 2×4 Jacobian (position columns from the sensor model's ``jacobian``, zero
-velocity columns),
-``R_k = diag(R(d̂_k))`` from the *predicted* distance (the filter never sees the true one) and the
-bearing innovation wrapped to [−π, π). The information sum is evaluated in the equivalent
+with ``H_k`` the D×4 Jacobian (D = the sensor's ``DIM``; position columns from the sensor
+model's ``jacobian``, zero velocity columns), ``R_k = diag(R(d̂_k))`` from the *predicted*
+distance (the filter never sees the true one) and the innovations of the sensor's angle channels
+(``ANGLES``: the bearing) wrapped to [−π, π). The information sum is evaluated in the equivalent
 gain form (``P`` is never inverted) and the covariance in Joseph form, so it stays
 symmetric positive definite. Everything is vectorised over robots × targets.
 """
@@ -37,9 +37,10 @@ class EkfUpdate:
     """Result of one update with consistency diagnostics.
 
     ``nis[k, j]``: normalized innovation squared ``ν_kjᵀ S_kj⁻¹ ν_kj`` of robot ``k``'s measurement
-    of target ``j`` alone against the prior (χ²(2) if consistent), NaN where not measured.
-    ``joint_nis[j]``: NIS of all measurements of target ``j`` stacked (χ²(``dof[j]``) if
-    consistent), NaN where ``dof[j] == 0``. ``dof[j] = 2 ·`` number of robots that measured ``j``.
+    of target ``j`` alone against the prior (χ²(D) if consistent, D the sensor's ``DIM``), NaN
+    where not measured. ``joint_nis[j]``: NIS of all measurements of target ``j`` stacked
+    (χ²(``dof[j]``) if consistent), NaN where ``dof[j] == 0``. ``dof[j] = D ·`` number of robots
+    that measured ``j``.
     """
 
     estimate: TargetEstimate
@@ -74,8 +75,9 @@ class ExtendedKalmanFilter:
     ) -> TargetEstimate:
         """Measurement update (eqs. ``state_update``, ``cov_inv_update``); returns a new object.
 
-        ``robot_positions`` ``(K, 2)``, ``measurements`` ``(K, N, 2)`` ``[range, bearing]``, NaN
-        where robot ``k`` did not measure target ``j`` (skipped). If ``nis_out`` is given, the
+        ``robot_positions`` ``(K, 2)``, ``measurements`` ``(K, N, D)`` (D the sensor's ``DIM``;
+        ``[range, bearing]`` for the paper's sensor), NaN where robot ``k`` did not measure target
+        ``j`` (skipped). If ``nis_out`` is given, the
         per-(robot, target) NIS of the measurements used are appended to it, robot-major.
         """
         if nis_out is None:  # the estimate only: no diagnostics to compute
@@ -99,20 +101,26 @@ class ExtendedKalmanFilter:
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
         z = np.asarray(measurements, dtype=float)
-        if z.shape != (k, n, 2):
-            raise ValueError(f"measurements must have shape ({k}, {n}, 2), got {z.shape}")
+        sensor = self.sensor
+        if z.shape != (k, n, sensor.DIM):
+            raise ValueError(
+                f"measurements must have shape ({k}, {n}, {sensor.DIM}), got {z.shape}"
+            )
         if not np.isfinite(robots).all():
             raise ValueError("robot_positions must be finite")
 
         mean, cov = est.mean, est.cov
         pos = mean[:, :2]
-        h = self.sensor.predict(robots[:, None, :], pos[None, :, :])  # (K, N, 2)
-        hjac = self.sensor.jacobian(robots[:, None, :], pos[None, :, :])  # (K, N, 2, 2)
-        var = self.sensor.noise_variance(h[..., 0])  # R(d̂) at the predicted distance
+        seen_from, seen = robots[:, None, :], pos[None, :, :]
+        h = sensor.predict(seen_from, seen)  # (K, N, D)
+        hjac = sensor.jacobian(seen_from, seen)  # (K, N, D, 2)
+        # R(d̂) at the predicted distance
+        var = sensor.noise_variance(sensor.noise_distance(seen_from, seen, h))
 
         valid = np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
-        innov[..., 1] = wrap_angle(innov[..., 1])
+        for channel in sensor.ANGLES:
+            innov[..., channel] = wrap_angle(innov[..., channel])
         if valid.all():  # every robot measured every target: nothing to mask
             rinv = 1.0 / var
         else:
@@ -147,13 +155,13 @@ class ExtendedKalmanFilter:
 
         # Per-measurement NIS against the prior: S = H P_pp Hᵀ + R.
         s = hjac @ cov[None, :, :2, :2] @ np.swapaxes(hjac, -1, -2)
-        s[..., 0, 0] += var[..., 0]
-        s[..., 1, 1] += var[..., 1]
+        for channel in range(self.sensor.DIM):
+            s[..., channel, channel] += var[..., channel]
         nis = np.einsum("kna,kna->kn", innov, np.linalg.solve(s, innov[..., None])[..., 0])
         nis = np.where(valid, nis, np.nan)
 
         # Stacked NIS via Woodbury: z̃ᵀ S⁻¹ z̃ = Σ_k z̃_kᵀ R_k⁻¹ z̃_k − bᵀ P⁺_pp b.
-        dof = 2 * valid.sum(axis=0).astype(np.int64)
+        dof = self.sensor.DIM * valid.sum(axis=0).astype(np.int64)
         quad = np.einsum("kna,kna,kna->n", innov, rinv, innov)
         joint = quad - np.einsum("ni,nij,nj->n", b, new_cov[:, :2, :2], b)
         joint = np.where(dof > 0, joint, np.nan)

@@ -1,10 +1,16 @@
 """Measurement models: what a robot's sensor measures of a target, and how much it tells.
 
-:class:`MeasurementModel` is the interface every consumer goes through — the EKF (measurement,
-Jacobian, noise), the league NLP and the SOG program (the information ``Hᵀ R⁻¹ H`` a sensor
-would contribute from a planned position, in CasADi form). A new sensor type is one new
-subclass (plus its scenario schema): the planners take the class from the team's sensor
-(``Structure.sensor_model``) and size their parameters by its ``N_PARAMETERS``
+:class:`MeasurementModel` is the interface every consumer goes through — the world (sampling),
+the EKF (measurement, Jacobian, noise, which channels are angles), the league NLP and the SOG
+program (the information ``Hᵀ R⁻¹ H`` a sensor would contribute from a planned position, in
+CasADi form). A measurement has :attr:`~MeasurementModel.DIM` channels, so a team's
+measurements are ``(M, N, DIM)``.
+
+A sensor type is one class with its ``Spec`` (the pydantic model of the scenario's ``sensor``
+section, a :class:`SensorSpec` whose ``type`` names it), registered in :data:`SENSORS` with
+``@register_sensor("name")`` or an entry point of the group ``resilient_tracking.sensors``; a
+scenario selects it with ``sensor: {type: name, ...}``. The planners take the class from the
+team's sensor (``Structure.sensor_model``) and size their parameters by its ``N_PARAMETERS``
 (tests/test_sensor_model_choice.py builds both programs on a five-parameter sensor).
 
 :class:`RangeBearingSensor` is the paper's sensor (docs/model.md §1, paper eq. 2): range and
@@ -16,11 +22,15 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field
+
+from resilient_tracking.registry import Registry
+from resilient_tracking.spec import PositiveFloat, Strict
 
 FloatArray = NDArray[np.float64]
 
@@ -37,16 +47,78 @@ def wrap_angle(a: FloatArray | float) -> FloatArray | float:
     return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
+# ---------------------------------------------------------------------------- parameters
+
+
+class SensorSpec(Strict):
+    """Base of a sensor's parameters; ``type`` selects the measurement model by its registered
+    name (:data:`SENSORS`)."""
+
+    type: str = Field(description="Selects the sensor: a registered name or package.module:Class.")
+
+    def model(self) -> MeasurementModel:
+        """The measurement model this section declares."""
+        return SENSORS.get(self.type).from_spec(self)
+
+
+class SensorChannel(Strict):
+    """One channel: inverse variance ``peak · exp(−shape · d)``."""
+
+    peak: PositiveFloat = Field(
+        15.0,
+        description="Inverse variance at distance 0 (m⁻² for range, rad⁻² for bearing).",
+        json_schema_extra={"unit": "1/variance"},
+    )
+    shape: float = Field(
+        0.2,
+        ge=0,
+        description="Decay rate of the information with distance; 0: independent of distance.",
+        json_schema_extra={"unit": "1/m"},
+    )
+
+
+class RangeBearingSpec(SensorSpec):
+    """The robots' range-bearing sensor (paper eq. 2): noise per channel and an optional maximum
+    range."""
+
+    type: Literal["range_bearing"] = Field(
+        "range_bearing", description="Selects this sensor; a section without a type is this one."
+    )
+    range: SensorChannel = Field(SensorChannel(), description="Noise of the range measurement.")
+    bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
+    max_range: PositiveFloat | None = Field(
+        None,
+        description="Targets farther than this are not measured; null: no limit.",
+        json_schema_extra={"unit": "m"},
+    )
+
+
+# ---------------------------------------------------------------------------- models
+
+
 class MeasurementModel(ABC):
     """A sensor's measurement of a point target, in NumPy (filtering) and CasADi (planning).
 
-    The planners see a model only through :attr:`parameters`, a numeric vector of
-    :attr:`N_PARAMETERS` entries that is a parameter of their programs (so one compiled problem
-    serves every sensor of the type), and the class-level CasADi forms that take it.
+    A measurement has :attr:`DIM` channels; those in :attr:`ANGLES` are angles, whose
+    innovations the EKF wraps to [−π, π). The planners see a model only through
+    :attr:`parameters`, a numeric vector of :attr:`N_PARAMETERS` entries that is a parameter of
+    their programs (so one compiled problem serves every sensor of the type), and the
+    class-level CasADi forms that take it.
     """
 
+    #: the pydantic model of the ``sensor`` section this model reads
+    Spec: ClassVar[type[SensorSpec]]
+    #: number of channels of one measurement
+    DIM: ClassVar[int]
+    #: indices of the channels that are angles (wrapped to [−π, π))
+    ANGLES: ClassVar[tuple[int, ...]]
     #: length of :attr:`parameters`
     N_PARAMETERS: ClassVar[int]
+
+    @classmethod
+    def from_spec(cls, spec: Any) -> MeasurementModel:
+        """The model with the parameters of ``spec`` (a ``Spec``)."""
+        raise NotImplementedError(f"{cls.__name__} must define from_spec")
 
     @property
     @abstractmethod
@@ -59,11 +131,19 @@ class MeasurementModel(ABC):
 
     @abstractmethod
     def noise_variance(self, distance: FloatArray | float) -> FloatArray:
-        """Per-channel noise variance at this distance."""
+        """Per-channel noise variance at this distance, ``(..., DIM)``."""
+
+    @abstractmethod
+    def noise_distance(
+        self, robot: FloatArray, target: FloatArray, measurement: FloatArray
+    ) -> FloatArray:
+        """The distance (m) at which the noise of ``measurement = predict(robot, target)`` is
+        evaluated; a model with a range channel may read it from ``measurement``."""
 
     @abstractmethod
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
-        """Jacobian of the measurement w.r.t. the target position; broadcasts, ``(..., 2, 2)``."""
+        """Jacobian of the measurement w.r.t. the target position; broadcasts,
+        ``(..., DIM, 2)``."""
 
     @abstractmethod
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
@@ -99,6 +179,20 @@ class MeasurementModel(ABC):
         and its Hessians (3×3: row ``r`` holds ``∂²m_r/∂x²`` as ``[xx, xy, yy]``)."""
 
 
+#: Measurement models by name: the built-ins, the entry points of the group
+#: ``resilient_tracking.sensors`` and dotted paths ``package.module:Class``.
+SENSORS: Registry[type[MeasurementModel]] = Registry(
+    "sensor",
+    "resilient_tracking.sensors",
+    MeasurementModel,
+    builtins=("resilient_tracking.models.sensor", "resilient_tracking.models.bearing_only"),
+)
+
+#: Class decorator registering a measurement model under a name: ``@register_sensor("sonar")``.
+register_sensor = SENSORS.register
+
+
+@register_sensor("range_bearing")
 @dataclass(frozen=True)
 class RangeBearingSensor(MeasurementModel):
     """Range and bearing to a point target; parameters per sensor channel."""
@@ -109,8 +203,23 @@ class RangeBearingSensor(MeasurementModel):
     bearing_shape: float = 0.2
     max_range: float | None = None
 
+    Spec: ClassVar[type[SensorSpec]] = RangeBearingSpec
+    #: ``[range, bearing]``
+    DIM: ClassVar[int] = 2
+    ANGLES: ClassVar[tuple[int, ...]] = (1,)
     #: range peak, range shape, bearing peak, bearing shape
     N_PARAMETERS: ClassVar[int] = 4
+
+    @classmethod
+    def from_spec(cls, spec: Any) -> RangeBearingSensor:
+        """The sensor of a :class:`RangeBearingSpec`."""
+        return cls(
+            range_peak=spec.range.peak,
+            range_shape=spec.range.shape,
+            bearing_peak=spec.bearing.peak,
+            bearing_shape=spec.bearing.shape,
+            max_range=spec.max_range,
+        )
 
     @property
     def parameters(self) -> FloatArray:
@@ -134,6 +243,12 @@ class RangeBearingSensor(MeasurementModel):
         out[..., 0] = np.exp(np.minimum(self.range_shape * d, MAX_EXPONENT)) / self.range_peak
         out[..., 1] = np.exp(np.minimum(self.bearing_shape * d, MAX_EXPONENT)) / self.bearing_peak
         return out
+
+    def noise_distance(
+        self, robot: FloatArray, target: FloatArray, measurement: FloatArray
+    ) -> FloatArray:
+        """The range channel of ``measurement``: the distance itself."""
+        return np.asarray(measurement)[..., 0]
 
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Jacobian of the measurement w.r.t. the target position: rows ``δᵀ/d`` (range) and

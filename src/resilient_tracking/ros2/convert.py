@@ -65,9 +65,9 @@ def pose_xy(msg: msgs.PoseStamped, name: str) -> np.ndarray:
 
 
 def observation_to_msg(obs: TeamObservation, stamp: msgs.Time, frame: str) -> msgs.TeamObservation:
-    """The tick's :class:`TeamObservation` as a message: step and time, measurements ``(m, N, 2)``
-    flattened, capability flags and persistences, links, attacks with their clues, and recoveries
-    (float64 numbers throughout)."""
+    """The tick's :class:`TeamObservation` as a message: step and time, measurements ``(m, N, D)``
+    flattened (D the sensor's ``DIM``), capability flags and persistences, links, attacks with
+    their clues, and recoveries (float64 numbers throughout)."""
     attacks = [
         msgs.ZoneAttack(
             robot=int(a.robot),
@@ -113,16 +113,18 @@ def _label(value: str, allowed: tuple[str, ...], name: str) -> str:
 
 
 def observation_from_msg(
-    msg: msgs.TeamObservation, positions: np.ndarray, n_targets: int
+    msg: msgs.TeamObservation, positions: np.ndarray, n_targets: int, dim: int
 ) -> TeamObservation:
-    """The team's observation from a message and the robots' own positions (M, 2)."""
+    """The team's observation from a message and the robots' own positions (M, 2);
+    ``dim`` is the channels of one measurement (the team's sensor's ``DIM``)."""
     m = len(positions)
     if msg.n_robots != m or msg.n_targets != n_targets:
         raise MessageError(
             f"observation.n_robots/n_targets: expected {m}x{n_targets}, "
             f"got {msg.n_robots}x{msg.n_targets}"
         )
-    z = np.array(_sized(msg.measurements, m * n_targets * 2, "measurements"), dtype=np.float64)
+    size = m * n_targets * dim
+    z = np.array(_sized(msg.measurements, size, "measurements"), dtype=np.float64)
     if np.isinf(z).any():
         raise MessageError("observation.measurements: infinite value (NaN marks 'not measured')")
     attacks = []
@@ -158,7 +160,7 @@ def observation_from_msg(
         step=int(msg.step),
         time=float(msg.time),
         positions=np.array(positions, dtype=float),
-        measurements=z.reshape(m, n_targets, 2),
+        measurements=z.reshape(m, n_targets, dim),
         sensing_ok=np.array(_sized(msg.sensing_ok, m, "sensing_ok"), dtype=np.bool_),
         comm_ok=np.array(_sized(msg.comm_ok, m, "comm_ok"), dtype=np.bool_),
         sensing_persistence=tuple(sensing_p),

@@ -259,7 +259,7 @@ uint32 step
 float64 time
 uint32 n_robots
 uint32 n_targets
-float64[] measurements        # n_robots*n_targets*2 (range, bearing); NaN where not measured
+float64[] measurements        # n_robots*n_targets*D (D: the sensor's channels); NaN: not measured
 bool[] sensing_ok             # n_robots
 bool[] comm_ok                # n_robots
 string[] sensing_persistence  # n_robots: "" | temporary | permanent

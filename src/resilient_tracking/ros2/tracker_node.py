@@ -279,7 +279,7 @@ class TrackerNode:
 
     def _step(self, msg: msgs.TeamObservation, positions: np.ndarray, truth_xy: np.ndarray) -> bool:
         try:
-            obs = observation_from_msg(msg, positions, len(self.targets))
+            obs = observation_from_msg(msg, positions, len(self.targets), self.team.measurement_dim)
         except MessageError as err:
             self._drop(err)
             return False

@@ -17,6 +17,7 @@ The format is documented in ``docs/scenario-format.md``; everything is importabl
 
 from __future__ import annotations
 
+from resilient_tracking.models.sensor import RangeBearingSpec, SensorChannel, SensorSpec
 from resilient_tracking.planning.spec import (
     PlannerSpec,
     RouteSpec,
@@ -59,8 +60,7 @@ from resilient_tracking.scenario.world_specs import (
     MotionSpec,
     NoisyConstantVelocity,
     RobotSpec,
-    SensorChannel,
-    SensorSpec,
+    Sensor,
     TargetMotion,
     TargetSpec,
     Waypoints,
@@ -108,6 +108,8 @@ __all__ = [
     "TargetSpec",
     "SensorChannel",
     "SensorSpec",
+    "RangeBearingSpec",
+    "Sensor",
     "EstimatorSpec",
     "HazardSpec",
     "GaussianHazard",

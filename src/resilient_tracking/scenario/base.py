@@ -65,14 +65,16 @@ MIN_DT = 1e-3
 MAX_RECORDED_ROWS = 5_000_000
 
 
-def plugin_spec(registry: str, tag: str) -> Any:
+def plugin_spec(registry: str, tag: str, default: str | None = None) -> Any:
     """A before-validator: the ``Spec`` of the class the mapping's ``tag`` names in the registry
     ``registry`` (``module:ATTRIBUTE``, imported on first use), validated with it, so errors
-    name the fields of that ``Spec``."""
+    name the fields of that ``Spec``. A mapping without ``tag`` names ``default``, if given."""
 
     def validate(value: Any) -> Any:
         if isinstance(value, BaseModel):
             return value
+        if default is not None and isinstance(value, dict) and tag not in value:
+            value = {tag: default, **value}
         if not isinstance(value, dict) or not isinstance(value.get(tag), str):
             raise ValueError(f"must be a mapping with a {tag!r} naming the model")
         from resilient_tracking.registry import UnknownName

@@ -10,6 +10,7 @@ from pydantic import (
     ValidationError,
 )
 
+from resilient_tracking.models.sensor import RangeBearingSpec
 from resilient_tracking.planning.spec import PlannerSpec
 from resilient_tracking.scenario.base import (
     MAX_DT,
@@ -30,7 +31,7 @@ from resilient_tracking.scenario.world_specs import (
     Circle,
     EstimatorSpec,
     RobotSpec,
-    SensorSpec,
+    Sensor,
     TargetSpec,
     Workspace,
 )
@@ -61,7 +62,9 @@ class Scenario(Strict):
         json_schema_extra={"unit": "steps"},
     )
     workspace: Workspace = Field(Workspace(), description="Box the robots stay in.")
-    sensor: SensorSpec = Field(SensorSpec(), description="Range/bearing sensor of every robot.")
+    sensor: Sensor = Field(
+        RangeBearingSpec(), description="Sensor of every robot, selected by its type."
+    )
     estimator: EstimatorSpec = Field(
         EstimatorSpec(), description="The robots' target model and initial uncertainty."
     )

@@ -11,7 +11,7 @@ from pydantic import (
     SerializeAsAny,
 )
 
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.sensor import SensorSpec
 from resilient_tracking.scenario.base import PositiveFloat, Strict, Vec2, plugin_spec
 
 # ---------------------------------------------------------------------------- geometry
@@ -156,43 +156,12 @@ class TargetSpec(Strict):
 # ---------------------------------------------------------------------------- sensing, estimation
 
 
-class SensorChannel(Strict):
-    """One channel: inverse variance ``peak · exp(−shape · d)``."""
-
-    peak: PositiveFloat = Field(
-        15.0,
-        description="Inverse variance at distance 0 (m⁻² for range, rad⁻² for bearing).",
-        json_schema_extra={"unit": "1/variance"},
-    )
-    shape: float = Field(
-        0.2,
-        ge=0,
-        description="Decay rate of the information with distance; 0: independent of distance.",
-        json_schema_extra={"unit": "1/m"},
-    )
-
-
-class SensorSpec(Strict):
-    """The robots' range-bearing sensor (paper eq. 2): noise per channel and an optional maximum
-    range."""
-
-    range: SensorChannel = Field(SensorChannel(), description="Noise of the range measurement.")
-    bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
-    max_range: PositiveFloat | None = Field(
-        None,
-        description="Targets farther than this are not measured; null: no limit.",
-        json_schema_extra={"unit": "m"},
-    )
-
-    def model(self) -> RangeBearingSensor:
-        """The measurement model this section declares."""
-        return RangeBearingSensor(
-            range_peak=self.range.peak,
-            range_shape=self.range.shape,
-            bearing_peak=self.bearing.peak,
-            bearing_shape=self.bearing.shape,
-            max_range=self.max_range,
-        )
+#: The robots' sensor: the ``Spec`` of the measurement model its ``type`` names; a section
+#: without a ``type`` is the paper's range-bearing sensor.
+Sensor = Annotated[
+    SerializeAsAny[SensorSpec],
+    plugin_spec("resilient_tracking.models.sensor:SENSORS", "type", default="range_bearing"),
+]
 
 
 class EstimatorSpec(Strict):

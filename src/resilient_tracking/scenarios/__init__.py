@@ -1,4 +1,5 @@
-"""The scenarios shipped with the package: the paper's six, the three benchmarks and a soak run.
+"""The scenarios shipped with the package: the paper's six, the three benchmarks, a soak run and
+``bearing-only`` (the sensing-temp mission with a bearing-only sensor).
 
 They are package data, so they are found the same way from a checkout, an editable install or
 a wheel, whatever the working directory. Every command that takes a scenario accepts either a
