@@ -1,4 +1,4 @@
-"""Hostile scenario files (issue #6, item 1): property tests over malformed and adversarial input.
+"""Hostile scenario files (docs/reliability.md): property tests over malformed and adversarial input.
 
 Each property takes a shipped scenario, breaks it in a generated way (wrong types and shapes,
 NaN/inf, bad variances, bad covariances, empty or huge teams, unknown keys, zones on robots,

@@ -1,4 +1,4 @@
-"""Numerical health (issue #6, item 3): covariances stay SPD, angles wrapped, tables free of NaN."""
+"""Numerical health (docs/reliability.md): covariances stay SPD, angles wrapped, tables free of NaN."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Solver faults (issue #6, item 2): episodes survive injected failures of every kind.
+"""Solver faults (docs/reliability.md): episodes survive injected failures of every kind.
 
 A seeded :class:`FaultInjector` corrupts solver attempts (infeasible, NaN, exception, iteration
 limit). The episode must complete, every fallback must be an event, commands must stay inside
