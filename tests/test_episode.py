@@ -29,6 +29,7 @@ def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
         )
 
 
+@pytest.mark.slow
 def test_setup_runs_before_the_first_step_with_the_episodes_world_and_team():
     """A team that knows the zone from the start (seeded in ``setup``) keeps clear of it from
     step 0, so it is attacked less than the team that learns it by being attacked."""

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location("table_hashes", ROOT / "tools" / "table_hashes.py")
 assert _spec is not None and _spec.loader is not None

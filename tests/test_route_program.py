@@ -15,6 +15,8 @@ import pytest
 from conftest import SCENARIOS
 from resilient_tracking.experiments.compare import compare
 
+pytestmark = pytest.mark.slow
+
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]
 SEEDS = range(1, 11)
 

@@ -13,6 +13,8 @@ import pytest
 from helpers import shipped
 from resilient_tracking.sim.soak import soak
 
+pytestmark = pytest.mark.slow
+
 STEPS = int(os.environ.get("RTRACK_SOAK_STEPS", "24"))
 
 

@@ -16,8 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from resilient_tracking.sim.records import TABLES
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEP = ["reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q"]
