@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import pandas as pd
+import pytest
 import yaml
 
 from helpers import SCENARIOS
@@ -60,6 +61,7 @@ def test_run_refuses_a_bad_file_and_writes_nothing(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_run_writes_tables_manifest_and_figures(tmp_path, capsys):
     out = tmp_path / "run"
     scenario = tmp_path / "s.yaml"
@@ -77,6 +79,7 @@ def test_run_writes_tables_manifest_and_figures(tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_library_warnings_are_shown_only_with_verbose():
     """A library's warning (joblib's "a worker stopped"…) is for developers: `-v` shows it."""
     code = (

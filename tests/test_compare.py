@@ -69,6 +69,7 @@ def test_confidence_interval_is_students_t():
     assert all(np.isnan(confidence_interval(np.array([3.0]))))
 
 
+@pytest.mark.slow
 def test_paired_wins_and_best_counts_compare_seed_by_seed():
     runs = pd.DataFrame(
         {
@@ -99,6 +100,7 @@ def test_unknown_policy_and_scenario_fail_before_running():
         make_study(["no-such-scenario"], ["vanilla"], 2)
 
 
+@pytest.mark.slow
 def test_compare_writes_a_report_and_resumes(tmp_path, capsys):
     out = tmp_path / "C"
     argv = [
@@ -141,6 +143,7 @@ def test_compare_reports_a_bad_override_without_a_traceback(tmp_path, capsys):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_dask_logs_are_quiet_without_verbose(tmp_path, capfd):
     argv = ["compare", "sensing-temp", "--seeds", "1", "--policies", "vanilla", "--set"]
     argv += ["steps=5", "--dask", "local", "--jobs", "1", "--out", str(tmp_path / "d"), "-q"]

@@ -285,6 +285,7 @@ def consistent_run() -> Run:
     return _simulate(steps=2000, n_targets=100, seed=20240601)
 
 
+@pytest.mark.slow
 def test_nees_is_consistent(consistent_run: Run) -> None:
     assert _nees_ok(consistent_run), consistent_run.nees.mean()
     # Per step, the mean over targets lies in its 95% interval most of the time.
@@ -294,6 +295,7 @@ def test_nees_is_consistent(consistent_run: Run) -> None:
     assert np.mean((per_step >= lo) & (per_step <= hi)) > 0.8
 
 
+@pytest.mark.slow
 def test_nis_is_consistent(consistent_run: Run) -> None:
     assert _joint_nis_ok(consistent_run), np.nanmean(consistent_run.joint_nis)
     assert np.all(consistent_run.dof == 2 * len(ROBOTS))
@@ -305,11 +307,13 @@ def test_nis_is_consistent(consistent_run: Run) -> None:
     assert lo <= per_target_step.mean() <= hi
 
 
+@pytest.mark.slow
 def test_covariance_symmetric_pd_over_long_run(consistent_run: Run) -> None:
     assert consistent_run.max_asym == 0.0
     assert consistent_run.min_eig > 0.0
 
 
+@pytest.mark.slow
 def test_misspecified_process_noise_fails_nees() -> None:
     """Truth process noise 5× the filter's Q: the NEES check must reject the filter."""
     run = _simulate(steps=2000, n_targets=100, seed=20240601, truth_q_scale=5.0)

@@ -14,7 +14,7 @@ import pytest
 
 from helpers import run_checked
 
-pytestmark = pytest.mark.wheel
+pytestmark = [pytest.mark.wheel, pytest.mark.slow]
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "greedy_tracker"
 

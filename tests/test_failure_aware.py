@@ -70,6 +70,7 @@ def run_with_policy(s, seed: int = 1):
 # ---------------------------------------------------------------------------- sensing
 
 
+@pytest.mark.slow
 def test_zone_is_known_to_every_league_member_in_the_step_it_is_revealed():
     result = run_episode(shipped("sensing-temp"), policy="failure_aware", seed=1)
     events, knowledge, robots = result["events"], result["knowledge"], result["robots"]
@@ -167,6 +168,7 @@ def circling_scenario(infer: bool):
     )
 
 
+@pytest.mark.slow
 def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
     s = circling_scenario(infer=True)
     result = run_episode(s, seed=1)
@@ -221,6 +223,7 @@ def _time_near(result, robots_of_interest, center, radius, after):
     return int((np.hypot(r.x - center[0], r.y - center[1]) < radius).sum())
 
 
+@pytest.mark.slow
 def test_after_inference_teammates_enter_the_jamming_region_less():
     """Seeds where robot 0 loses its radio early: from then on its teammates spend less time
     in the jammer's attack region than a team that neither suspects nor infers the zone."""
@@ -305,6 +308,7 @@ def test_two_leagues_plan_jointly_and_independently():
     assert (last.loc[[0, 1], "x"] > -3.0).all() and (last.loc[[2, 3], "x"] < 3.0).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["combined-temp", "combined-perm"])
 def test_combined_zones_are_learned_progressively(name):
     result = run_episode(shipped(name), policy="failure_aware", seed=1)

@@ -54,12 +54,14 @@ def drawn():
     return suite(seed=5, n=4)
 
 
+@pytest.mark.slow
 def test_same_seed_same_suite_and_a_suite_is_a_prefix_of_a_longer_one(drawn):
     first = [s.model_dump() for s in drawn]
     assert first[:2] == [s.model_dump() for s in suite(seed=5, n=2)]  # drawn again: the same
     assert first[:2] != [s.model_dump() for s in suite(seed=6, n=2)]
 
 
+@pytest.mark.slow
 def test_the_stored_suite_is_what_the_generator_draws():
     # the generator runs the vanilla team, so a planner change can move the suite; then
     # `python tools/generate_suite.py` writes it again (and the report must be re-made)
@@ -67,6 +69,7 @@ def test_the_stored_suite_is_what_the_generator_draws():
     assert head == [s.model_dump() for s in stored_suite(3)]
 
 
+@pytest.mark.slow
 def test_rtrack_generate_writes_scenario_files_and_replaces_none(tmp_path, drawn, capsys):
     out = tmp_path / "suite"
     assert main(["generate", "-n", "3", "--out", str(out), "-q"]) == 0
@@ -81,6 +84,7 @@ def test_rtrack_generate_writes_scenario_files_and_replaces_none(tmp_path, drawn
     assert main(["generate", "-n", "0", "--out", str(out), "-q"]) == 1
 
 
+@pytest.mark.slow
 def test_the_zone_free_vanilla_team_meets_every_zone(drawn):
     for s in drawn:
         data = s.model_dump(mode="json")
@@ -96,6 +100,7 @@ def test_the_zone_free_vanilla_team_meets_every_zone(drawn):
     assert 0.1 <= peak_rate <= 0.2 + 1e-3  # the generator's peak attack rate per step
 
 
+@pytest.mark.slow
 def test_every_suite_scenario_is_valid_and_in_the_papers_family(full_suite):
     assert len(full_suite) == SUITE_SIZE >= 60
     assert len({s.name for s in full_suite}) == len(full_suite)
@@ -119,6 +124,7 @@ def test_every_suite_scenario_is_valid_and_in_the_papers_family(full_suite):
             assert gap <= 1.0 + 1e-9, (s.name, z.name, gap)
 
 
+@pytest.mark.slow
 def test_the_suite_covers_every_motion_zone_kind_persistence_and_placement(full_suite):
     seen = Counter()
     for s in full_suite:

@@ -20,6 +20,8 @@ import pytest
 from resilient_tracking.runs import fingerprints
 from resilient_tracking.sim.kernels import PINNED_ENV
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = json.loads((ROOT / fingerprints.GOLDEN).read_text())
 

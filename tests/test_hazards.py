@@ -139,6 +139,7 @@ def run_and_count(world: World, steps: int) -> tuple[np.ndarray, np.ndarray, lis
     return trials, hits, attack_steps
 
 
+@pytest.mark.slow
 def test_world_gaussian_attack_rate_matches_formula() -> None:
     mu = np.array([0.5, -0.3])
     zone = {

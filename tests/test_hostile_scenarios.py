@@ -1,4 +1,4 @@
-"""Hostile scenario files (issue #6, item 1): property tests over malformed and adversarial input.
+"""Hostile scenario files (docs/reliability.md): property tests over malformed and hostile input.
 
 Each property takes a shipped scenario, breaks it in a generated way (wrong types and shapes,
 NaN/inf, bad variances, bad covariances, empty or huge teams, unknown keys, zones on robots,
@@ -268,6 +268,7 @@ def _capture(capsys: pytest.CaptureFixture[str]):
 # ---------------------------------------------------------------------------- properties
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(replaced_value())
 def test_any_replaced_node_is_accepted_or_named(case):
@@ -307,6 +308,7 @@ def test_a_non_number_in_a_number_field_is_named_exactly(case, value):
     assert dotted(path) in named, (dotted(path), outcome.problems)
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(structural_break())
 def test_structural_breaks_are_accepted_or_named(data):
@@ -314,6 +316,7 @@ def test_structural_breaks_are_accepted_or_named(data):
     event("accepted" if isinstance(outcome, Scenario) else "refused")
 
 
+@pytest.mark.slow
 @settings(suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(DOCUMENTS)
 def test_any_document_is_accepted_or_named(text):
@@ -326,6 +329,7 @@ def test_any_document_is_accepted_or_named(text):
             assert all(PROBLEM.match(p) for p in err.problems), err.problems
 
 
+@pytest.mark.slow
 @settings(
     suppress_health_check=[HealthCheck.function_scoped_fixture],
     max_examples=max(10, settings().max_examples // 3),
@@ -368,6 +372,7 @@ def extreme_but_valid(draw: st.DrawFn) -> dict[str, Any]:
     return data
 
 
+@pytest.mark.slow
 @settings(
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much],
     max_examples=max(10, settings().max_examples // 2),
@@ -382,6 +387,7 @@ def test_extreme_but_valid_scenarios_run_without_nan(data):
         assert np.all(np.isfinite(numbers)), (name, table[~np.isfinite(numbers).all(axis=1)])
 
 
+@pytest.mark.slow
 @settings(
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much],
     max_examples=max(5, settings().max_examples // 6),
@@ -394,6 +400,7 @@ def test_cli_runs_extreme_but_valid_files(text):
 # ---------------------------------------------------------------------------- fixed cases
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("text", "field"),
     [

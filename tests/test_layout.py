@@ -80,7 +80,7 @@ def test_known_options_are_taken():
 
 
 def test_an_input_left_at_none_is_packed_as_zeros():
-    """How an optional per-robot input (issue 12's waypoints, say) can be added in one line."""
+    """How an optional per-robot input (per-robot waypoints, say) can be added in one line."""
     q = inputs(n=3, big_n=2)
     packed = ParameterLayout.pack(q)
     q.sensing = None

@@ -184,6 +184,7 @@ def test_a_robot_needing_more_slots_gets_the_full_problem():
     np.testing.assert_array_equal(sqp["x"], full.solve(q, method="sqp")[0]["x"])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not codegen.enabled(), reason="needs a C compiler and RTRACK_CODEGEN on")
 def test_reduced_problem_on_compiled_code_gives_bit_for_bit_the_same_plans(tmp_path, monkeypatch):
     monkeypatch.setenv("RTRACK_CACHE_DIR", str(tmp_path))

@@ -1,4 +1,4 @@
-"""Numerical health (issue #6, item 3): covariances stay SPD, angles wrapped, tables free of NaN."""
+"""Numerical health (docs/reliability.md): covariances SPD, angles wrapped, tables free of NaN."""
 
 from __future__ import annotations
 
@@ -67,6 +67,7 @@ def test_a_non_finite_covariance_is_replaced_by_the_fallback():
     assert np.array_equal(out[0], fallback) and is_spd(out)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(
     arrays(
@@ -82,6 +83,7 @@ def test_any_finite_stack_comes_out_spd(cov):
         assert np.allclose(out, cov, rtol=1e-9, atol=1e-9 * max(1.0, np.abs(cov).max()))
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(
     arrays(
@@ -194,6 +196,7 @@ LONG_RUNS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "policy", "seed", "steps"), LONG_RUNS)
 def test_long_runs_stay_spd_wrapped_and_finite(monkeypatch, name, policy, seed, steps):
     seen = {"ticks": 0, "matrices": 0, "bearings": 0, "min_eig": math.inf}

@@ -13,6 +13,8 @@ import pytest
 from helpers import SCENARIOS
 from resilient_tracking.experiments.compare import compare
 
+pytestmark = pytest.mark.slow
+
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]
 
 

@@ -256,6 +256,7 @@ def test_unknown_solver_names_are_rejected():
         )
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not codegen.enabled(), reason="needs a C compiler and RTRACK_CODEGEN on")
 def test_compiled_code_gives_bit_for_bit_the_same_plans(tmp_path, monkeypatch):
     """The cache can fill between two runs; the results must not notice."""

@@ -18,7 +18,7 @@ import resilient_tracking
 OPTIONAL = ("resilient_tracking.ros2",)
 
 
-def test_the_issue_names_import_from_the_top_level():
+def test_the_main_names_import_from_the_top_level():
     from resilient_tracking import (  # noqa: F401
         Decision,
         Policy,

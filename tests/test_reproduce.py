@@ -85,6 +85,7 @@ def test_unknown_experiment_is_a_clear_error(capsys):
     assert "nope" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_sweep_stores_each_run_and_skips_finished_ones_on_a_rerun(tmp_path):
     todo = tiny_tasks()
     assert len(run_sweep(todo, tmp_path, jobs=2)) == 4
@@ -112,6 +113,7 @@ def test_a_changed_scenario_makes_the_stored_run_stale(tmp_path):
     assert len(tables_of(tmp_path, longer[0])["team"]) == 14
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_tables_as_joblib(tmp_path):
     todo = tiny_tasks()[:2]
     run_sweep(todo, tmp_path / "joblib", jobs=2)
@@ -122,6 +124,7 @@ def test_dask_local_cluster_gives_the_same_tables_as_joblib(tmp_path):
             pd.testing.assert_frame_equal(a[name], b[name])
 
 
+@pytest.mark.slow
 def test_report_has_a_table_figures_and_claims_for_each_experiment(tmp_path):
     todo = tiny_tasks(steps=30)
     run_sweep(todo, tmp_path, jobs=2)
@@ -135,6 +138,7 @@ def test_report_has_a_table_figures_and_claims_for_each_experiment(tmp_path):
     assert (tmp_path / "tiny" / "summary.csv").exists()
 
 
+@pytest.mark.slow
 def test_figures_are_drawn_again_only_when_their_runs_change(tmp_path, monkeypatch):
     """A second report of the same stored runs reads no run and draws nothing; a run that
     changed redraws that experiment's figures (in two worker processes) and the report is
@@ -204,6 +208,7 @@ def test_claims_fail_when_the_numbers_say_so():
     assert [c.holds for c in check(catalog()["bench-complex"], complex_)] == [True, False]
 
 
+@pytest.mark.slow
 def test_animate_writes_a_gif_of_a_run(tmp_path, capsys):
     todo = tiny_tasks()[:1]
     run_sweep(todo, tmp_path)
@@ -249,6 +254,7 @@ def quick_claims(tmp_path_factory):
     return claims
 
 
+@pytest.mark.slow
 def test_quick_reproduction_reports_the_generalization_targets(quick_claims):
     """The generated suite runs in `all` and its targets are decided (they are reported, not
     asserted: the project must not be tuned on the suite)."""
@@ -257,6 +263,7 @@ def test_quick_reproduction_reports_the_generalization_targets(quick_claims):
     assert all("/" in c.evidence and "CI" in c.evidence for c in found)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", [*SIX, "bench-risk", "bench-scale", "bench-complex"])
 def test_quick_reproduction_supports_the_papers_claims(quick_claims, name):
     found = {s: c for (n, s), c in quick_claims.items() if n == name}

@@ -78,6 +78,7 @@ def _hash(df: pd.DataFrame) -> bytes:
     )
 
 
+@pytest.mark.slow
 def test_lockstep_run_between_two_processes_equals_rtrack_run(spawn, tmp_path: Path) -> None:
     scenario = str(SCENARIOS / "sensing-temp.yaml")
     world = spawn("world", "world", scenario, "--seed", "3", "--lockstep")
@@ -104,6 +105,7 @@ def test_lockstep_run_between_two_processes_equals_rtrack_run(spawn, tmp_path: P
     assert cmd.pose.position.z == 0.5
 
 
+@pytest.mark.slow
 def test_world_exiting_mid_run_makes_the_tracker_hold(spawn, tmp_path: Path, domain) -> None:
     scenario = str(SCENARIOS / "sensing-temp.yaml")
     listener = DdsNode(domain)
@@ -227,6 +229,7 @@ def test_without_the_extra_the_verbs_say_how_to_install_it(monkeypatch, capsys) 
         assert 'pip install "resilient-tracking[ros2]"' in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_base_package_does_not_import_dds() -> None:
     code = (
         "import sys, resilient_tracking.cli, resilient_tracking.sim.episode;"
@@ -305,6 +308,7 @@ def test_a_background_writer_builds_messages_in_its_thread_and_reports_them():
     assert built_in == ["markers-thread"] and out.dropped == 0
 
 
+@pytest.mark.slow
 def test_the_free_running_loop_freezes_the_heap_and_always_unfreezes_it():
     import gc
 

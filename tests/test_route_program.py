@@ -3,8 +3,8 @@ evades, comes back and keeps tracking (docs/calibration.md, "Evade, then come ba
 
 "Last third" is the mean trace over the final third of an episode; "no-zone" is the same
 scenario, policy and seed with ``zones: []``. A straggler is a robot that can still sense at
-the end but is more than 1.5 m from every target. The targets of the issue that are not met
-yet are strict xfails, so that meeting one is noticed.
+the end but is more than 1.5 m from every target. The targets (docs/calibration.md §6) that
+are not met yet are strict xfails, so that meeting one is noticed.
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ import pytest
 
 from conftest import SCENARIOS
 from resilient_tracking.experiments.compare import compare
+
+pytestmark = pytest.mark.slow
 
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]
 SEEDS = range(1, 11)

@@ -1,4 +1,4 @@
-"""Soak (issue #6, item 4), shortened for CI: the soak scenario runs clean with flat memory.
+"""Soak (docs/reliability.md), shortened for CI: the soak scenario runs clean with flat memory.
 
 The full run is ``python tools/soak.py`` (2000 steps, memory at 500 and 2000; see
 docs/reliability.md). Here ``RTRACK_SOAK_STEPS`` steps (default 24) are run.
@@ -12,6 +12,8 @@ import pytest
 
 from helpers import shipped
 from resilient_tracking.sim.soak import soak
+
+pytestmark = pytest.mark.slow
 
 STEPS = int(os.environ.get("RTRACK_SOAK_STEPS", "24"))
 

@@ -205,6 +205,7 @@ def test_lower_rho2_keeps_robots_further_from_a_known_zone(seed):
     assert np.all(distances[0.2] > distances[0.6] + 0.1), distances
 
 
+@pytest.mark.slow
 def test_risky_team_is_hit_more_often_than_a_conservative_one_in_sensing_perm():
     attacks = {}
     for rho2 in (0.6, 0.2):
@@ -266,6 +267,7 @@ def test_the_scenarios_solver_choice_holds_for_sog(solver, first):
     assert ("sqp" in rungs) == (solver == "ladder")
 
 
+@pytest.mark.slow
 def test_rtrack_run_with_sog_writes_the_run_folder(tmp_path, capsys):
     out = tmp_path / "run"
     path = str(SCENARIOS / "sensing-temp.yaml")
@@ -312,6 +314,7 @@ def _recorded_inputs(name: str, seed: int, steps: int) -> list[tuple[tuple[int, 
     return found
 
 
+@pytest.mark.slow
 def test_the_sqp_ladder_plans_what_ipopt_plans_within_solver_tolerance():
     """Every step of a bench-risk episode (a zone learned on the way): the SQP rung solves
     it (no fallback) and its velocities match IPOPT's on the same problem to 1e-3 m/s."""

@@ -1,4 +1,4 @@
-"""Solver faults (issue #6, item 2): episodes survive injected failures of every kind.
+"""Solver faults (docs/reliability.md): episodes survive injected failures of every kind.
 
 A seeded :class:`FaultInjector` corrupts solver attempts (infeasible, NaN, exception, iteration
 limit). The episode must complete, every fallback must be an event, commands must stay inside
@@ -180,6 +180,7 @@ def fallback_events(result) -> pd.DataFrame:
     return events[events["event"] == "solver_fallback"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "policy", "p", "seed"), CASES)
 def test_fault_injected_episode_completes_and_logs_every_fallback(spy, name, policy, p, seed):
     scenario = shipped(name).with_overrides(steps=150)
@@ -200,6 +201,7 @@ def test_fault_injected_episode_completes_and_logs_every_fallback(spy, name, pol
     assert result["team"]["n_solver_failures"].sum() == sum(1 for _, ok, _ in spy.plans if not ok)
 
 
+@pytest.mark.slow
 def test_without_faults_the_same_episode_has_no_fallback(spy):
     """The injector itself adds no fallback. On the one-step program this episode has none;
     the route program hands a few solves of it from the SQP to IPOPT (counted in
@@ -211,6 +213,7 @@ def test_without_faults_the_same_episode_has_no_fallback(spy):
     assert len(fallback_events(result)) == 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "policy", "p", "seed"), CASES)
 def test_commands_respect_velocity_bounds_under_faults(spy, name, policy, p, seed):
     scenario = shipped(name).with_overrides(steps=150)
@@ -237,6 +240,7 @@ def known_zone_means(knowledge: pd.DataFrame, robot: int, step: int) -> np.ndarr
     return rows[["x", "y"]].drop_duplicates().to_numpy(dtype=float)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("name", "p", "seed"), [("sensing-temp", 0.6, 5), ("combined-temp", 0.6, 6)]
 )

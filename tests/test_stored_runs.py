@@ -15,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from resilient_tracking.experiments.catalog import Experiment, Variant, tasks
 from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
@@ -126,6 +127,7 @@ def stop_group(proc: subprocess.Popen[str]) -> None:
     proc.communicate(timeout=30)
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_run_exits_130_without_traceback_or_leftovers(tmp_path):
     proc = rtrack("run", "sensing-temp", "--steps", "50000", "--out", "out", "-q", cwd=tmp_path)
     try:
@@ -140,6 +142,7 @@ def test_ctrl_c_during_run_exits_130_without_traceback_or_leftovers(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_ctrl_c_and_a_killed_parent_leave_no_worker_and_keep_finished_runs(tmp_path):
     argv = ("reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q")
     proc = rtrack(*argv, "--out", "res", cwd=tmp_path)

@@ -16,8 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from resilient_tracking.runs.schema import REPRODUCIBLE
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEP = ["reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q"]

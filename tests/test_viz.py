@@ -197,6 +197,7 @@ def assert_nontrivial_png(path: Path, min_kb: float = 20.0) -> None:
     assert len(colours) > 10, f"{path} has only {len(colours)} distinct colours"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("empty_knowledge", [False, True])
 def test_make_run_figures_writes_pngs(tmp_path: Path, empty_knowledge: bool) -> None:
     run_dir = write_run(tmp_path / "run", empty_knowledge=empty_knowledge)
@@ -208,6 +209,7 @@ def test_make_run_figures_writes_pngs(tmp_path: Path, empty_knowledge: bool) -> 
         assert_nontrivial_png(p)
 
 
+@pytest.mark.slow
 def test_make_run_figures_without_workspace_or_optional_tables(tmp_path: Path) -> None:
     run_dir = write_run(tmp_path / "run", workspace=False)
     (run_dir / "events.parquet").unlink()
@@ -297,6 +299,7 @@ def test_load_run_missing_required_table(tmp_path: Path) -> None:
         load_run(run_dir)
 
 
+@pytest.mark.slow
 def test_trajectory_map_into_given_axes_snapshot_panels(tmp_path: Path) -> None:
     run = load_run(write_run(tmp_path / "run"))
     fig = Figure(figsize=(12, 4))
@@ -318,6 +321,7 @@ def test_trajectory_map_into_given_axes_snapshot_panels(tmp_path: Path) -> None:
     assert_nontrivial_png(out, min_kb=5)
 
 
+@pytest.mark.slow
 def test_trajectory_map_until_step_writes_file(tmp_path: Path) -> None:
     run = load_run(write_run(tmp_path / "run"))
     out = tmp_path / "sub" / "map_step20.png"

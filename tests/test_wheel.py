@@ -15,7 +15,7 @@ import pytest
 
 from helpers import run_checked as _run
 
-pytestmark = pytest.mark.wheel
+pytestmark = [pytest.mark.wheel, pytest.mark.slow]
 
 
 def test_wheel_runs_reproduce_and_compare_from_an_empty_directory(installed, tmp_path):

@@ -49,6 +49,7 @@ def target_world(motion: dict[str, Any], start: list[float], seed: int = 0, **ex
 # ---------------------------------------------------------------------------- zone centers
 
 
+@pytest.mark.slow
 def test_zone_centers_drawn_from_prior() -> None:
     sc = scenario([[0.0, 0.0]], zones=ZONES)
     n = 1500

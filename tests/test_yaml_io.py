@@ -134,6 +134,7 @@ def test_a_tiny_sigma_is_refused_with_the_reason(tmp_path):
     assert problems[0].startswith("zones.0.sigma: is too small")
 
 
+@pytest.mark.slow
 def test_a_large_invalid_value_is_rendered_briefly(tmp_path):
     rows = ", ".join(["[0.0, 0.0]"] * 5000)
     problems = problems_of(tmp_path, SHIPPED.replace("name: sensing-temp", f"name: [{rows}]"))

@@ -1,4 +1,4 @@
-"""Numerical health of covariance matrices: check, and repair with a report (issue #6, item 3).
+"""Numerical health of covariance matrices: check, and repair with a report (docs/reliability.md).
 
 The EKF (Joseph form, symmetrised) and covariance intersection keep covariances symmetric
 positive definite in exact arithmetic; in floating point a long run can still drift. Each tick

@@ -116,8 +116,9 @@ def only_conservative_survives(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     return out
 
 
-#: The targets issue 12 sets on the generated suite: shares of scenarios (trace, MSE) in which
-#: failure-aware beats vanilla, and the largest share of stragglers among sensing robots.
+#: The targets set for the generated suite (docs/generalization.md): shares of scenarios
+#: (trace, MSE) in which failure-aware beats vanilla, and the largest share of stragglers among
+#: sensing robots.
 GENERALIZATION_TARGETS = {"trace": 0.9, "mse": 0.8, "stragglers": 0.1}
 
 

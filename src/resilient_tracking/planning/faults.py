@@ -1,4 +1,4 @@
-"""Seeded solver-fault injection for reliability tests (issue #6, docs/model.md §9).
+"""Seeded solver-fault injection for reliability tests (docs/reliability.md, docs/model.md §9).
 
 :class:`FaultInjector` is a :data:`~resilient_tracking.planning.planner.FaultHook`: the
 :class:`~resilient_tracking.planning.planner.LeaguePlanner` calls it after every solver attempt

@@ -1,4 +1,4 @@
-"""Soak runs (issue #6, item 4): a long episode with its memory sampled along the way.
+"""Soak runs (docs/reliability.md): a long episode with its memory sampled along the way.
 
 :func:`soak` runs one episode and every ``sample_every`` steps reads the process's resident set
 size (``/proc/self/statm``) and peak (``getrusage``), and the process-wide cache of league
