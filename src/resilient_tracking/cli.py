@@ -75,13 +75,8 @@ def _policy_problem(name: str | None) -> str | None:
     if name is None:
         return None
     from resilient_tracking.policies import POLICIES
-    from resilient_tracking.registry import UnknownName
 
-    try:
-        POLICIES.get(name)
-    except UnknownName as err:
-        return str(err)
-    return None
+    return POLICIES.problem(name)
 
 
 def cmd_run(args: argparse.Namespace) -> int:

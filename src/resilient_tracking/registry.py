@@ -89,6 +89,14 @@ class Registry(Generic[T]):
             "or give a class as package.module:Class"
         )
 
+    def problem(self, name: str) -> str | None:
+        """Why ``name`` names no class here (the :class:`UnknownName` message), else ``None``."""
+        try:
+            self.get(name)
+        except UnknownName as err:
+            return str(err)
+        return None
+
     def names(self) -> list[str]:
         """Registered names and entry-point names, sorted (dotted paths are not listed)."""
         self._load_builtins()

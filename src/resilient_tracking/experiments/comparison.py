@@ -165,8 +165,6 @@ def make_study(
     """Load and validate everything before anything runs (``ScenarioError`` / ``ValueError``);
     ``seeds`` is a count ``N`` (seeds 1..N) or the seeds themselves."""
     from resilient_tracking.policies import POLICIES
-    from resilient_tracking.registry import UnknownName
-
     if not policies:
         raise ValueError(f"--policies: none given; choose from {', '.join(POLICIES.names())}")
     if by_zone_kind and len(set(policies)) < 2:
@@ -175,10 +173,9 @@ def make_study(
     if zone_free is not None:
         named.append(("--zone-free", zone_free))
     for option, name in named:
-        try:
-            POLICIES.get(name)
-        except UnknownName as err:
-            raise ValueError(f"{option}: {err}") from None
+        why = POLICIES.problem(name)
+        if why is not None:
+            raise ValueError(f"{option}: {why}")
     seeds = tuple(range(1, seeds + 1)) if isinstance(seeds, int) else tuple(seeds)
     if not seeds:
         raise ValueError("--seeds: none given")

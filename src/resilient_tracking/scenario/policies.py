@@ -52,10 +52,9 @@ class PolicySpec(BaseModel):
     @field_validator("name")
     @classmethod
     def _known_policy(cls, name: str) -> str:
-        try:
-            POLICIES.get(name)
-        except UnknownName as err:
-            raise ValueError(str(err)) from None
+        why = POLICIES.problem(name)
+        if why is not None:
+            raise ValueError(why)
         return name
 
     @model_validator(mode="after")
