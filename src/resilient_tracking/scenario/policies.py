@@ -63,6 +63,9 @@ class PolicySpec(BaseModel):
         problems: list[InitErrorDetails] = []
         for key, section in self.sections().items():
             loc: tuple[str, ...] = ("params",) if key == "params" else (key,)
+            if not key.isidentifier():  # not a policy's name (a class path goes in params)
+                problems.append(InitErrorDetails(type="extra_forbidden", loc=loc, input=section))
+                continue
             try:
                 model = POLICIES.get(self.name if key == "params" else key).Params
             except UnknownName as err:
