@@ -14,6 +14,7 @@ from resilient_tracking.planning.adaptation import adaptive_weights
 from resilient_tracking.policies import FailureAwarePolicy
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.scenario import parse_scenario
+from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.episode import initial_estimate, run_episode
 from resilient_tracking.team import Team
 from resilient_tracking.world import World
@@ -206,6 +207,8 @@ def test_a_robot_whose_radio_a_known_zone_destroys_circles_it_too():
     victim which zone struck it, so it circles that zone (Alg. 4) as without the map."""
     s = circling_scenario(infer=False)
     s = s.with_overrides(zones=[z.model_dump() | {"known": True} for z in s.zones])
+    # the paper's constraint set: the league does not keep clear of the known zone's hazard
+    s = overridden(s, {"policy.failure_aware.hazard_guard": False})
     result = run_episode(s, seed=1)
     events, robots = result["events"], result["robots"]
     hit = events[(events.event == "attack") & (events.robot == 0)]
@@ -334,17 +337,26 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
     knowledge = KnowledgeBase()
     knowledge.learn(zone("zone0", "sensing", 1.0))
     knowledge.learn(zone("zone1", "comm", 2.0))
-    calls = [(0.1, False), (0.1, False), (0.2, False), (0.2, True)]
-    for w5, alone in calls:
-        rows = policy._zone_rows(knowledge, w5, alone)
-        expected = fresh._make_zone_rows(knowledge, w5, alone)
+    calls = [(0.1, False, 1.4), (0.1, False, 1.4), (0.2, False, 1.4), (0.2, True, 1.4)]
+    calls += [(0.2, True, 1.9)]
+    for w5, alone, beta1 in calls:
+        rows = policy._zone_rows(knowledge, w5, alone, beta1)
+        expected = fresh._make_zone_rows(knowledge, w5, alone, beta1)
         for got, want in zip(rows, expected, strict=True):
             np.testing.assert_array_equal(got, want)
         rows[0][:] = -1.0  # a caller's change must not reach the next call
     knowledge.learn(zone("zone2", "sensing", 3.0))
-    sensing, comm = policy._zone_rows(knowledge, 0.2, True)
+    sensing, comm = policy._zone_rows(knowledge, 0.2, True, 1.4)
     assert len(sensing) == 3 and len(comm) == 0  # alone: the comm zone becomes a disc
-    assert len(policy._zone_rows(knowledge, 0.2, False)[0]) == 2
+    sensing, comm = policy._zone_rows(knowledge, 0.2, False, 1.4)
+    assert (len(sensing), len(comm)) == (3, 1)  # a league: the disc (hazard) and eq. 7d
+    knowledge.learn(
+        ZoneEstimate(
+            "zone3", "comm", np.array([6.0, 0.0]), 0.1 * np.eye(2), 0.4, "temporary", "attack", 1
+        )
+    )
+    sensing, comm = policy._zone_rows(knowledge, 0.2, False, 1.4)
+    assert (len(sensing), len(comm)) == (3, 2)  # a temporary one: eq. 7d only
 
 
 @pytest.mark.parametrize("guard", [True, False])
@@ -370,8 +382,38 @@ def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
         ("c", "unknown", 9.0),
     ]:
         knowledge.learn(comm(key, persistence, x))
-    _, league_rows = policy._make_zone_rows(knowledge, 0.0, alone=False)
+    _, league_rows = policy._make_zone_rows(knowledge, 0.0, False, policy.beta1)
     kept = {float(row[0]) for row in league_rows}  # each row starts with the zone's x
     assert kept == ({1.0, 5.0, 9.0} if guard else {5.0, 9.0})
-    discs, _ = policy._make_zone_rows(knowledge, 0.0, alone=True)
+    discs, _ = policy._make_zone_rows(knowledge, 0.0, True, policy.beta1)
     assert len(discs) == 3  # a robot alone keeps clear of every known comm zone either way
+
+
+@pytest.mark.parametrize("guard", [True, False])
+def test_the_hazard_guard_keeps_a_league_off_known_comm_zones_and_spares_the_last_sensors(guard):
+    """With ``hazard_guard`` a league gets an eq. 7c disc around each known comm zone besides
+    eq. 7d, and β1 grows as sensors are lost; without it, the paper's constraint set."""
+    from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+
+    s = scenario()
+    params = s.policy.params_for("failure_aware").model_copy(update={"hazard_guard": guard})
+    policy = FailureAwarePolicy(team_config(s), params)
+    knowledge = KnowledgeBase()
+    knowledge.learn(
+        ZoneEstimate(
+            "c", "comm", np.array([2.0, 0.0]), 0.1 * np.eye(2), 0.2, "permanent", "attack", 1
+        )
+    )
+    discs, jam_rows = policy._make_zone_rows(knowledge, 0.3, False, policy.beta1)
+    assert len(jam_rows) == 1
+    if guard:
+        assert len(discs) == 1
+        assert discs[0][5] == pytest.approx(params.comm_clearance + 0.3)  # r_safe: + w5
+    else:
+        assert len(discs) == 0
+    margins = [policy._sensing_margin(s_, 3) for s_ in (3, 2, 1, 0)]
+    assert margins[0] == policy.beta1
+    if guard:
+        assert margins[0] < margins[1] < margins[2] == margins[3]
+    else:
+        assert margins == [policy.beta1] * 4

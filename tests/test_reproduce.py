@@ -208,6 +208,22 @@ def test_claims_fail_when_the_numbers_say_so():
     assert [c.holds for c in check(catalog()["bench-complex"], complex_)] == [True, False]
 
 
+def test_the_combined_narrative_needs_a_sensing_robot_at_the_end_in_most_seeds():
+    combined = catalog()["combined-perm"]
+    assert combined.keeps_sensing and not catalog()["comm-perm"].keeps_sensing
+    rows = {
+        "policy": ["vanilla", "failure_aware"] * 3,
+        "seed": [1, 1, 2, 2, 3, 3],
+        "trace": [2.0, 1.0] * 3,
+        "mse": [2.0, 1.0] * 3,
+    }
+    for alive, holds in (([3, 1, 3, 0, 3, 0], False), ([0, 1, 0, 2, 0, 0], True)):
+        summary = _summary(**rows, sensing_end=alive)
+        claim = check(combined, summary)[-1]
+        assert claim.statement.endswith("keeps sensing to the end")
+        assert claim.holds is holds, claim.evidence
+
+
 @pytest.mark.slow
 def test_animate_writes_a_gif_of_a_run(tmp_path, capsys):
     todo = tiny_tasks()[:1]

@@ -26,7 +26,7 @@ from resilient_tracking import scenarios
 from resilient_tracking.experiments.generator import stored_suite
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.scenario.overrides import apply_overrides
+from resilient_tracking.scenario.overrides import PAPER_METHOD, apply_overrides
 
 
 def default_scenario_dir() -> Path:
@@ -85,6 +85,10 @@ class Experiment:
     #: the planner program its runs use ("one_step": the paper's; "route": the default;
     #: "": the scenarios' own setting)
     program: str = ""
+    #: whether the paper's narrative of it has a robot sensing to the end (the combined
+    #: scenarios: "R1 avoids entering the danger zones and continues to support the team's
+    #: tracking efforts"), checked as a claim
+    keeps_sensing: bool = False
 
     def seed_list(self, n: int | None = None) -> list[int]:
         """The seeds ``1..n`` (default ``n``: the experiment's own number of seeds)."""
@@ -139,6 +143,7 @@ def _pair(name: str, seeds: int) -> Experiment:
         seeds=seeds,
         description="adaptive (failure-aware) vs vanilla",
         variants=(Variant("vanilla", "vanilla"), Variant("failure_aware", "failure_aware")),
+        keeps_sensing=name.startswith("combined"),
     )
 
 
@@ -234,12 +239,12 @@ ROUTE_SUFFIX = "-route"
 
 def on_program(experiment: Experiment, program: str) -> Experiment:
     """``experiment`` with every arm on one planner program; the route program's copy is named
-    with :data:`ROUTE_SUFFIX` and runs the same seeds. (SOG plans with its own program, so its
-    arms are the same in both.)"""
-    variants = tuple(
-        replace(v, overrides={**v.overrides, "planner.program": program})
-        for v in experiment.variants
-    )
+    with :data:`ROUTE_SUFFIX` and runs the same seeds. On the one-step program the
+    failure-aware policy keeps the paper's constraint set too (:data:`PAPER_METHOD`), so it is
+    the paper's method as written. (SOG plans with its own program, so its arms are the same in
+    both.)"""
+    settings = PAPER_METHOD if program == "one_step" else {"planner.program": program}
+    variants = tuple(replace(v, overrides={**v.overrides, **settings}) for v in experiment.variants)
     if program == "one_step":
         return replace(
             experiment,

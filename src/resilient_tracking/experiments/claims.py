@@ -50,7 +50,23 @@ def adaptive_beats_vanilla(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
                 f"{n_wins}/{len(wins)})",
             )
         )
+    if exp.keeps_sensing:
+        out.append(keeps_a_sensor(exp, s))
     return out
+
+
+def keeps_a_sensor(exp: Experiment, s: pd.DataFrame) -> Claim:
+    """The paper's combined narrative: in most seeds at least one failure-aware robot keeps
+    sensing to the end."""
+    fa = s[s["policy"] == "failure_aware"]
+    alive = int((fa["sensing_end"] >= 1).sum())
+    return Claim(
+        exp.name,
+        "adaptive: in most seeds at least one robot keeps sensing to the end",
+        alive > len(fa) / 2,
+        f"{alive}/{len(fa)} seeds end with a sensing robot "
+        f"(mean {fa['sensing_end'].mean():.2f} sensing robots at the end)",
+    )
 
 
 def risky_fails_more(exp: Experiment, s: pd.DataFrame) -> list[Claim]:

@@ -165,6 +165,7 @@ def make_study(
     """Load and validate everything before anything runs (``ScenarioError`` / ``ValueError``);
     ``seeds`` is a count ``N`` (seeds 1..N) or the seeds themselves."""
     from resilient_tracking.policies import POLICIES
+
     if not policies:
         raise ValueError(f"--policies: none given; choose from {', '.join(POLICIES.names())}")
     if by_zone_kind and len(set(policies)) < 2:

@@ -44,18 +44,21 @@ def _pm(values: pd.Series, digits: int = 4) -> str:
 
 
 def variant_table(summary: pd.DataFrame) -> str:
-    """Markdown table: time-averaged trace and MSE (mean ± std), failures, survival."""
+    """Markdown table: time-averaged trace and MSE (mean ± std), failures, survival, and the
+    permanent hazard attacks by zones the robot already knew (of all permanent ones)."""
     lines = [
         "| variant | runs | trace | MSE | effort | sensing failures | comm failures "
-        "| survival steps | solver failures |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| survival steps | solver failures | permanent losses to known zones |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for variant, rows in summary.groupby("variant", sort=False):
+        known = int(rows.losses_known_permanent.sum())
+        permanent = known + int(rows.losses_unknown_permanent.sum())
         lines.append(
             f"| {variant} | {len(rows)} | {_pm(rows.trace)} | {_pm(rows.mse)} "
             f"| {_pm(rows.effort, 3)} | {rows.sensing_attacks.mean():.2f} "
             f"| {rows.comm_attacks.mean():.2f} | {rows.survival_steps.mean():.0f} "
-            f"| {int(rows.solver_failures.sum())} |"
+            f"| {int(rows.solver_failures.sum())} | {known}/{permanent} |"
         )
     return "\n".join(lines)
 

@@ -41,9 +41,9 @@ from resilient_tracking.viz.sweeps import (
 
 log = logging.getLogger(__name__)
 
-#: Part of every figure stamp: raise it when the figures' look changes, so stored reports
-#: draw theirs again.
-FIGURES_REVISION = 2
+#: Part of every figure stamp: raise it when the figures' look or the summary's columns change,
+#: so stored reports draw and summarise theirs again.
+FIGURES_REVISION = 3
 #: The stamp file inside an experiment's figures folder.
 STAMP = "inputs.sha256"
 

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.experiments.known_zones import losses_by_knowledge
 from resilient_tracking.runs.reading import RunData, attack_table
 
 
@@ -82,6 +83,8 @@ def summarise_run(run: RunData) -> dict[str, Any]:
         "comm_attacks": int((attacks["kind"] == "comm").sum()),
         "robots_attacked": int(attacks["robot"].nunique()),
         "robots_lost": robots_lost(events),
+        # sensors and radios lost to zones the robot knew, or did not, before (known_zones.py)
+        **losses_by_knowledge(run),
         "sensing_failed_end": int(team["n_sensing_failed"].iloc[-1]),
         "sensing_end": int(robots_end["sensing_ok"].astype(bool).sum()),
         "stragglers": len(far),

@@ -65,8 +65,12 @@ class FailureAwarePolicy(PlanningPolicy):
         self.last_weights = np.zeros((config.n_robots, 5))
         #: the weights of each situation, computed once (the parameters are fixed at creation)
         self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
-        #: the last zone rows made: the zones they came from, w5, alone, and the two tables
-        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, ZoneTables] | None = None
+        #: the last zone rows made: the zones they came from, w5, alone, β1, and the two tables
+        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, float, ZoneTables] | None = (
+            None
+        )
+        #: β1 by (robots sensing, team size), with ``hazard_guard``
+        self._margins: dict[tuple[int, int], float] = {}
 
     # ------------------------------------------------------------------ the tick
 
@@ -102,6 +106,7 @@ class FailureAwarePolicy(PlanningPolicy):
             self.cooldown_until = obs.step + self.params.cooldown_steps
         cooling = obs.step < self.cooldown_until
         attacked = m - int(np.count_nonzero(obs.sensing_ok & obs.comm_ok))
+        beta1 = self._sensing_margin(int(np.count_nonzero(obs.sensing_ok)), m)
 
         for k, robots in enumerate(belief.leagues):
             knowledge = belief.league_knowledge(robots)
@@ -111,7 +116,7 @@ class FailureAwarePolicy(PlanningPolicy):
             alone = len(robots) == 1
             weights = self._situation_weights(cooling, alone, attacked, m)
             mode = "individual" if alone else "cooldown" if cooling else "league"
-            szones, czones = self._zone_rows(knowledge, weights[4], alone)
+            szones, czones = self._zone_rows(knowledge, weights[4], alone, beta1)
             sensing = obs.sensing_ok[robots].astype(float)
             q = self.tracking_inputs(belief, obs, robots, k, weights[:4], sensing, szones, czones)
             decision.controls[robots] = self.solve(robots, q, obs.step, decision)
@@ -135,32 +140,50 @@ class FailureAwarePolicy(PlanningPolicy):
             self._weights[key] = weights
         return self._weights[key].copy()
 
+    def _sensing_margin(self, sensing: int, m: int) -> float:
+        """β1 of eq. 7c: ``erfinv(1 − 2ε1)``, with ``hazard_guard`` at the risk level
+        ``ε1 · s/M`` for ``s`` of the ``M`` robots still sensing (the last sensors are worth
+        more: losing the last one leaves the team blind for good)."""
+        if not self.params.hazard_guard or sensing >= m:
+            return self.beta1
+        key = (sensing, m)
+        if key not in self._margins:
+            self._margins[key] = chance_margin(self.params.eps1 * max(sensing, 1) / m)
+        return self._margins[key]
+
     def _zone_rows(
-        self, knowledge: KnowledgeBase, w5: float, alone: bool
+        self, knowledge: KnowledgeBase, w5: float, alone: bool, beta1: float
     ) -> tuple[np.ndarray, np.ndarray]:
         """Parameter rows of the known zones (eqs. 7c, 7d with ``r_safe = r + w5``); the last
-        tick's rows again when the zones (immutable estimates), ``w5`` and ``alone`` are.
+        tick's rows again when the zones (immutable estimates), ``w5``, ``alone`` and ``β1`` are.
 
         A robot alone has no teammate to be jammed from; it keeps clear of known comm zones as
         of disks of radius ``comm_clearance`` (plus any observed clearance) instead. With
-        ``guard_temporary_jammers`` off, a league has no rows for comm zones known to be
+        ``hazard_guard``, league robots keep clear of that disc (plus ``w5``) too, besides eq. 7d,
+        around every comm zone not known to be temporary: its hazard can destroy a radio
+        whatever the links (a temporary one costs an outage, which eq. 7d and the cool-down
+        already weigh). With
+        ``guard_temporary_jammers`` off, a league has no eq. 7d rows for comm zones known to be
         temporary.
         """
         zones = tuple(knowledge.zones.values())
         last = self._last_rows
         if (
             last is None
-            or (last[1], last[2]) != (w5, alone)
+            or (last[1], last[2], last[3]) != (w5, alone, beta1)
             or len(last[0]) != len(zones)
             or any(z is not known for z, known in zip(zones, last[0], strict=True))
         ):
-            last = self._last_rows = (zones, w5, alone, self._make_zone_rows(knowledge, w5, alone))
-        sensing, comm = last[3]
+            rows = self._make_zone_rows(knowledge, w5, alone, beta1)
+            last = self._last_rows = (zones, w5, alone, beta1, rows)
+        sensing, comm = last[4]
         return sensing.copy(), comm.copy()
 
-    def _make_zone_rows(self, knowledge: KnowledgeBase, w5: float, alone: bool) -> ZoneTables:
+    def _make_zone_rows(
+        self, knowledge: KnowledgeBase, w5: float, alone: bool, beta1: float
+    ) -> ZoneTables:
         rows_s = [
-            sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=self.beta1)
+            sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=beta1)
             for z in knowledge.of_kind("sensing")
         ]
         rows_c = []
@@ -168,7 +191,11 @@ class FailureAwarePolicy(PlanningPolicy):
             if alone:
                 radius = self.params.comm_clearance + z.clearance
                 rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=self.beta2))
-            elif self.params.guard_temporary_jammers or z.persistence != "temporary":
+                continue
+            if self.params.hazard_guard and z.persistence != "temporary":
+                radius = self.params.comm_clearance + w5 + z.clearance
+                rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=self.beta2))
+            if self.params.guard_temporary_jammers or z.persistence != "temporary":
                 rows_c.append(
                     comm_row(z.mean, z.cov, z.size, beta=self.beta2, clearance=z.clearance)
                 )

@@ -28,6 +28,7 @@ import pandas as pd
 from resilient_tracking import scenarios
 from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import Scenario, load_scenario
+from resilient_tracking.scenario.overrides import PAPER_METHOD, overridden
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.kernels import PINNED_ENV, pinned
 
@@ -62,12 +63,9 @@ def table_hash(df: pd.DataFrame) -> str:
 
 
 def fingerprinted_scenario(name: str) -> Scenario:
-    """Shipped scenario ``name`` on the paper's one-step program, where the program is a
-    choice."""
-    data = load_scenario(scenarios.path(name)).model_dump(mode="python")
-    if "program" in data.get("planner", {}):
-        data["planner"]["program"] = "one_step"
-    return Scenario.model_validate(data)
+    """Shipped scenario ``name`` with the paper's method as written (its one-step program and
+    constraint set, :data:`~resilient_tracking.scenario.overrides.PAPER_METHOD`)."""
+    return overridden(load_scenario(scenarios.path(name)), PAPER_METHOD)
 
 
 def fingerprints(runs: Sequence[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:

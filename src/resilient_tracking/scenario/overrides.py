@@ -14,7 +14,14 @@ from typing import Any
 from resilient_tracking.scenario.model import Scenario
 from resilient_tracking.scenario.paths import set_path, set_paths
 
-__all__ = ["apply_overrides", "overridden", "set_path"]
+__all__ = ["PAPER_METHOD", "apply_overrides", "overridden", "set_path"]
+
+#: The paper's method as written, by dotted path: its one-step program (eq. 9) and its
+#: constraint set (eqs. 7c, 7d; none of the failure-aware policy's hazard guard).
+PAPER_METHOD: dict[str, Any] = {
+    "planner.program": "one_step",
+    "policy.failure_aware.hazard_guard": False,
+}
 
 
 def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str) -> Scenario:
