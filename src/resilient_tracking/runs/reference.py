@@ -7,7 +7,7 @@ Regenerate both from the repository's root with::
 
     python -m resilient_tracking.runs.reference
 
-``tests/test_run_tables_reference.py`` fails when either is stale.
+``tests/test_run_tables.py`` fails when either is stale.
 """
 
 from __future__ import annotations

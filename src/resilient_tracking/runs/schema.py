@@ -17,6 +17,8 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.events import EVENT_NAMES
+
 Dtype = Literal["int64", "float64", "bool", "str"]
 Side = Literal["team", "truth"]
 
@@ -171,15 +173,25 @@ EVENTS = Table(
         _c("kind", "str", "", "sensing or comm (attack, recover, zone_*), else empty"),
         _c("zone", "int64", "", "id of the zone that attacked or was learned, −1 when none"),
         _c("persistence", "str", "", "temporary, permanent (unknown: zone_learned), else empty"),
-        _c("cause", "str", "", "attack: hazard (the zone's draw) or jamming, else empty"),
+        _c(
+            "cause",
+            "str",
+            "",
+            "attack: hazard (the zone's draw) or jamming; invalid_decision: what was wrong"
+            " (not_finite, out_of_bounds, shape, type, modes); else empty",
+        ),
         _c("source", "str", "", "zone_*: attack, broadcast, circle or silence, else empty"),
         _c("fallback", "str", "", "solver_fallback: the rung taken (safe, ...), else empty"),
-        _c("action", "str", "", "solver_fallback to safe: escape or hold, else empty"),
+        _c(
+            "action",
+            "str",
+            "",
+            "solver_fallback to safe: escape or hold; invalid_decision: hold; else empty",
+        ),
         _c("status", "str", "", "solver_fallback: the planner's status, else empty"),
     ),
     optional=True,
-    note="events: attack, recover, covariance_repaired, league_merge, league_split, "
-    "zone_learned, zone_suspected, zone_inferred, solver_fallback",
+    note="events: " + ", ".join(EVENT_NAMES),
 )
 
 ZONES = Table(
