@@ -417,3 +417,24 @@ def test_the_hazard_guard_keeps_a_league_off_known_comm_zones_and_spares_the_las
         assert margins[0] < margins[1] < margins[2] == margins[3]
     else:
         assert margins == [policy.beta1] * 4
+
+
+def test_a_circling_robot_turns_back_at_a_known_sensing_zone():
+    """With the hazard guard a robot circling its comm attacker (Alg. 4) that still senses does
+    not fly its circle into a known sensing zone's keep-out disc: it turns back there."""
+    from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+    from resilient_tracking.policies.failure_aware import _enters
+
+    s = scenario()
+    policy = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"))
+    knowledge = KnowledgeBase()
+    sensing = ZoneEstimate(
+        "s", "sensing", np.array([1.5, 0.0]), 0.05 * np.eye(2), 0.3, "permanent", "attack", 1
+    )
+    knowledge.learn(sensing)
+    rows, _ = policy._make_zone_rows(knowledge, 0.0, True, policy.beta1)
+    # heading straight into the disc enters it; leaving it, or staying far, does not
+    assert _enters(np.array([0.75, 0.0]), np.array([0.1, 0.0]), rows)
+    assert not _enters(np.array([0.6, 0.0]), np.array([0.05, 0.0]), rows)  # stays outside
+    assert not _enters(np.array([0.85, 0.0]), np.array([-0.1, 0.0]), rows)  # leaves it
+    assert not _enters(np.array([-2.0, 0.0]), np.array([0.1, 0.0]), rows)

@@ -17,8 +17,10 @@ def circle_velocity(
     speed: float,
     u_max: float,
     gain: float = 2.0,
+    direction: float = 1.0,
 ) -> np.ndarray:
-    """Counter-clockwise along the circle at ``speed``, pulled onto it radially.
+    """Counter-clockwise (``direction`` 1; −1 clockwise) along the circle at ``speed``, pulled
+    onto it radially.
 
     The command is scaled (not clipped per axis) to respect ``|u| ≤ u_max`` per component, so
     its direction, and hence the circle, is kept.
@@ -26,7 +28,7 @@ def circle_velocity(
     offset = np.asarray(position, dtype=float) - np.asarray(center, dtype=float)
     dist = float(np.linalg.norm(offset))
     radial = offset / dist if dist > 1e-9 else np.array([1.0, 0.0])
-    tangent = np.array([-radial[1], radial[0]])
+    tangent = direction * np.array([-radial[1], radial[0]])
     v = speed * tangent + gain * (radius - dist) * radial
     peak = float(np.abs(v).max())
     return v * min(1.0, u_max / peak) if peak > 0 else v

@@ -30,7 +30,14 @@ from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
-from resilient_tracking.planning.layout import comm_row, comm_table, sensing_row, sensing_table
+from resilient_tracking.planning.layout import (
+    SensingRow,
+    comm_row,
+    comm_table,
+    sensing_row,
+    sensing_table,
+)
+from resilient_tracking.planning.margins import keep_out_values
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, register_policy
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
@@ -69,6 +76,8 @@ class FailureAwarePolicy(PlanningPolicy):
         self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, float, ZoneTables] | None = (
             None
         )
+        #: circling direction (1 counter-clockwise, −1 clockwise) of each robot in Alg. 4
+        self._circling: dict[int, float] = {}
         #: β1 by (robots sensing, team size), with ``hazard_guard``
         self._margins: dict[tuple[int, int], float] = {}
 
@@ -211,13 +220,29 @@ class FailureAwarePolicy(PlanningPolicy):
             return
         radius = evasion_radius(attacker.cov, self.beta2, self.params.circle_margin)
         u_max = float(self.config.u_max[robot])
-        velocity = circle_velocity(
-            obs.positions[robot],
-            attacker.mean,
-            radius,
-            speed=self.params.circle_speed * u_max,
-            u_max=u_max,
-        )
+        position = obs.positions[robot]
+
+        def along(direction: float) -> np.ndarray:
+            return circle_velocity(
+                position,
+                attacker.mean,
+                radius,
+                speed=self.params.circle_speed * u_max,
+                u_max=u_max,
+                direction=direction,
+            )
+
+        direction = self._circling.get(robot, 1.0)
+        velocity = along(direction)
+        if self.params.hazard_guard and obs.sensing_ok[robot]:
+            # a circle that crosses a known sensing zone turns back at its keep-out disc, so
+            # the robot's sensor survives the signal (the arc still shows the circle)
+            rows, _ = self._make_zone_rows(knowledge, 0.0, True, self.beta1)
+            rows = rows[: len(knowledge.of_kind("sensing"))]
+            if len(rows) and _enters(position, velocity * self.config.dt, rows):
+                direction = -direction
+                velocity = along(direction)
+        self._circling[robot] = direction
         lower, upper = self.config.velocity_bounds([robot], obs.positions)
         decision.controls[robot] = np.clip(velocity, lower[0], upper[0])
 
@@ -229,3 +254,13 @@ class FailureAwarePolicy(PlanningPolicy):
             if z.source == "attack" and z.persistence == "permanent"
         ]
         return max(clues, key=lambda z: z.learned_step) if clues else None
+
+
+def _enters(position: np.ndarray, step: np.ndarray, rows: np.ndarray) -> bool:
+    """Whether moving by ``step`` takes ``position`` into, or deeper into, a keep-out disc of
+    the sensing rows (eq. 7c's margin falls below zero and keeps falling)."""
+    gaussians = rows[:, SensingRow.GAUSSIAN]
+    offset, beta = rows[:, SensingRow.R_SAFE], rows[:, SensingRow.BETA]
+    now = keep_out_values(position, gaussians, offset, beta)
+    then = keep_out_values(position + step, gaussians, offset, beta)
+    return bool(np.any((then < 0) & (then < now)))

@@ -152,8 +152,9 @@ class FailureAwareParams(Strict):
             "Beyond the paper: league robots keep clear of the hazard of every comm zone they"
             " know and do not know to be temporary (an eq. 7c disc of radius comm_clearance +"
             " w5, besides eq. 7d); the risk level of the sensing-zone constraints shrinks with the"
-            " share of robots still sensing (ε1·s/M). false: the paper's constraint set"
-            " (docs/paper-map.md)."
+            " share of robots still sensing (ε1·s/M); a robot circling its attacker (Alg. 4)"
+            " turns back at a known sensing zone's keep-out disc. false: the paper's constraint"
+            " set (docs/paper-map.md)."
         ),
     )
     inferred_delta2: PositiveFloat = Field(
