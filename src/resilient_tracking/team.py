@@ -98,8 +98,6 @@ class Team:
             needs=policy.belief_needs(),
         )
         self.n_targets = int(initial_estimate.mean.shape[0])
-        #: robot-steps whose control the policy got wrong (each one held position instead)
-        self.invalid_controls = 0
         #: channels of one measurement of the team's sensor (its ``DIM``)
         self.measurement_dim = config.sensor.DIM
 
@@ -188,7 +186,6 @@ class Team:
                 contained.events.append(
                     Event.invalid_decision(obs.step, i, name, p.kind, p.message)
                 )
-        self.invalid_controls += len(held)
         log.warning(
             "step %d: policy %s: %s; robots %s hold position",
             obs.step,

@@ -56,7 +56,6 @@ class TeamBelief:
         #: predicts and updates the league estimates (the EKF of :mod:`~.ekf` by default)
         self.estimator = estimator
         self.needs = needs or BeliefNeeds()
-        self.learns_zones = self.needs.zones
         self.ci_criterion = ci_criterion
         #: infers comm zones from silent teammates at the end of each update (or ``None``)
         settings = self.needs.silent_robots
@@ -89,12 +88,12 @@ class TeamBelief:
         self.learned = []
         self.sensing_ok = np.asarray(obs.sensing_ok, dtype=bool)
         if self._mapped:
-            if self.learns_zones:
+            if self.needs.zones:
                 for zone in self._mapped:
                     for robot in range(self.n_robots):
                         self._learn(robot, replace(zone, learned_step=obs.step))
             self._mapped = []
-        if self.learns_zones:
+        if self.needs.zones:
             for attack in obs.attacks:
                 self._learn(attack.robot, ZoneEstimate.from_clue(attack.clue, obs.step))
         events += self._regroup(components(obs.links), obs.step)
@@ -112,7 +111,7 @@ class TeamBelief:
             self.estimates[k] = self.estimator.update(self.estimates[k], positions, measurements)
         events += self._check_health(obs.step)
         self._predicted = [None] * len(self.estimates)
-        if self.learns_zones:
+        if self.needs.zones:
             self._share_knowledge()
             if self.silent_robot_watch is not None:
                 events += self.silent_robot_watch.observe(self, obs)

@@ -12,13 +12,14 @@ beside the libraries, removed by their supervisor or, if their owner died, by
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import logging
 import os
 import shutil
 from pathlib import Path
 
 import casadi as ca
+
+from resilient_tracking.checksums import sha256_of
 
 log = logging.getLogger(__name__)
 
@@ -87,15 +88,6 @@ def remove_library(path: Path) -> None:
     for p in (path, Path(f"{path}.sha256")):
         with contextlib.suppress(FileNotFoundError):
             p.unlink()
-
-
-def sha256_of(path: Path) -> str:
-    """The SHA-256 of a file's bytes, in hex."""
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def damage_of(library: Path, names: dict[str, str]) -> str | None:

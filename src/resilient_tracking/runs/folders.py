@@ -32,6 +32,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from resilient_tracking.checksums import sha256_of
 from resilient_tracking.runs.schema import TABLE_FILES, TABLES
 
 MANIFEST = "manifest.json"
@@ -53,15 +54,6 @@ def folder_name(label: str) -> str:
     ``pkg.module:Class``, becomes ``pkg.module_Class`` (a colon is not allowed in a Windows
     path, and a slash would nest folders)."""
     return _UNPORTABLE.sub("_", label) or "_"
-
-
-def sha256_of(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes (read in 1 MiB blocks)."""
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def files_of(folder: Path) -> list[str]:
