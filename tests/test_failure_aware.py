@@ -337,25 +337,29 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
     knowledge = KnowledgeBase()
     knowledge.learn(zone("zone0", "sensing", 1.0))
     knowledge.learn(zone("zone1", "comm", 2.0))
-    calls = [(0.1, False, 1.4), (0.1, False, 1.4), (0.2, False, 1.4), (0.2, True, 1.4)]
-    calls += [(0.2, True, 1.9)]
-    for w5, alone, beta1 in calls:
-        rows = policy._zone_rows(knowledge, w5, alone, beta1)
-        expected = fresh._make_zone_rows(knowledge, w5, alone, beta1)
+    calls = [(0.1, False, 0.02), (0.1, False, 0.02), (0.2, False, 0.02), (0.2, True, 0.02)]
+    calls += [(0.2, True, 0.01)]
+    for w5, alone, eps in calls:
+        rows = policy._zone_rows(knowledge, w5, alone, eps)
+        expected = fresh._make_zone_rows(knowledge, w5, alone, eps)
         for got, want in zip(rows, expected, strict=True):
             np.testing.assert_array_equal(got, want)
         rows[0][:] = -1.0  # a caller's change must not reach the next call
+    policy.exposure.steps["zone0"] = fresh.exposure.steps["zone0"] = 1000
+    rows = policy._zone_rows(knowledge, 0.2, True, 0.01)  # exposure changed: new rows
+    np.testing.assert_array_equal(rows[0], fresh._make_zone_rows(knowledge, 0.2, True, 0.01)[0])
     knowledge.learn(zone("zone2", "sensing", 3.0))
-    sensing, comm = policy._zone_rows(knowledge, 0.2, True, 1.4)
+    sensing, comm, keys, n_sensing = policy._zone_rows(knowledge, 0.2, True, 0.02)
     assert len(sensing) == 3 and len(comm) == 0  # alone: the comm zone becomes a disc
-    sensing, comm = policy._zone_rows(knowledge, 0.2, False, 1.4)
+    assert (keys, n_sensing) == (["zone0", "zone2", "zone1"], 2)
+    sensing, comm, _, _ = policy._zone_rows(knowledge, 0.2, False, 0.02)
     assert (len(sensing), len(comm)) == (3, 1)  # a league: the disc (hazard) and eq. 7d
     knowledge.learn(
         ZoneEstimate(
             "zone3", "comm", np.array([6.0, 0.0]), 0.1 * np.eye(2), 0.4, "temporary", "attack", 1
         )
     )
-    sensing, comm = policy._zone_rows(knowledge, 0.2, False, 1.4)
+    sensing, comm, _, _ = policy._zone_rows(knowledge, 0.2, False, 0.02)
     assert (len(sensing), len(comm)) == (3, 2)  # a temporary one: eq. 7d only
 
 
@@ -382,10 +386,10 @@ def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
         ("c", "unknown", 9.0),
     ]:
         knowledge.learn(comm(key, persistence, x))
-    _, league_rows = policy._make_zone_rows(knowledge, 0.0, False, policy.beta1)
+    _, league_rows, _, _ = policy._make_zone_rows(knowledge, 0.0, False, params.eps1)
     kept = {float(row[0]) for row in league_rows}  # each row starts with the zone's x
     assert kept == ({1.0, 5.0, 9.0} if guard else {5.0, 9.0})
-    discs, _ = policy._make_zone_rows(knowledge, 0.0, True, policy.beta1)
+    discs, _, _, _ = policy._make_zone_rows(knowledge, 0.0, True, params.eps1)
     assert len(discs) == 3  # a robot alone keeps clear of every known comm zone either way
 
 
@@ -404,19 +408,20 @@ def test_the_hazard_guard_keeps_a_league_off_known_comm_zones_and_spares_the_las
             "c", "comm", np.array([2.0, 0.0]), 0.1 * np.eye(2), 0.2, "permanent", "attack", 1
         )
     )
-    discs, jam_rows = policy._make_zone_rows(knowledge, 0.3, False, policy.beta1)
+    discs, jam_rows, _, _ = policy._make_zone_rows(knowledge, 0.3, False, params.eps1)
     assert len(jam_rows) == 1
     if guard:
         assert len(discs) == 1
         assert discs[0][5] == pytest.approx(params.comm_clearance + 0.3)  # r_safe: + w5
+        assert discs[0][6] == pytest.approx(policy.beta1)  # at the sensing zones' risk level
     else:
         assert len(discs) == 0
-    margins = [policy._sensing_margin(s_, 3) for s_ in (3, 2, 1, 0)]
-    assert margins[0] == policy.beta1
+    risks = [policy._sensing_risk(s_, 3) for s_ in (3, 2, 1, 0)]
+    assert risks[0] == params.eps1
     if guard:
-        assert margins[0] < margins[1] < margins[2] == margins[3]
+        assert risks[0] > risks[1] > risks[2] == risks[3]
     else:
-        assert margins == [policy.beta1] * 4
+        assert risks == [params.eps1] * 4
 
 
 def test_a_circling_robot_turns_back_at_a_known_sensing_zone():
@@ -432,9 +437,32 @@ def test_a_circling_robot_turns_back_at_a_known_sensing_zone():
         "s", "sensing", np.array([1.5, 0.0]), 0.05 * np.eye(2), 0.3, "permanent", "attack", 1
     )
     knowledge.learn(sensing)
-    rows, _ = policy._make_zone_rows(knowledge, 0.0, True, policy.beta1)
+    rows = policy._make_zone_rows(knowledge, 0.0, True, policy.params.eps1)[0]
     # heading straight into the disc enters it; leaving it, or staying far, does not
     assert _enters(np.array([0.75, 0.0]), np.array([0.1, 0.0]), rows)
     assert not _enters(np.array([0.6, 0.0]), np.array([0.05, 0.0]), rows)  # stays outside
     assert not _enters(np.array([0.85, 0.0]), np.array([-0.1, 0.0]), rows)  # leaves it
     assert not _enters(np.array([-2.0, 0.0]), np.array([0.1, 0.0]), rows)
+
+
+def test_exposure_halves_a_zones_risk_level_each_time_it_doubles():
+    """Robot-steps near a keep-out disc are counted (far ones are not); the zone's risk level
+    halves at ``H``, ``3H``, ``7H`` steps, so its β grows in steps, and a horizon of 0 never
+    changes it."""
+    from resilient_tracking.planning.adaptation import chance_margin
+    from resilient_tracking.planning.layout import sensing_row, sensing_table
+    from resilient_tracking.policies.exposure import ExposureLedger
+
+    ledger = ExposureLedger(horizon=10)
+    rows = sensing_table([sensing_row([0.0, 0.0], 0.1 * np.eye(2), r_safe=0.5, beta=1.0)])
+    near, far = np.array([[0.9, 0.0]]), np.array([[3.0, 0.0]])
+    levels = []
+    for _ in range(70):
+        ledger.record(["z"], rows, np.vstack([near, far]))
+        levels.append(ledger.level("z"))
+    assert ledger.steps == {"z": 70}  # the far robot adds nothing
+    assert [levels.index(k) + 1 for k in (1, 2, 3)] == [10, 30, 70]
+    assert ledger.margin(0.02, "z") == pytest.approx(chance_margin(0.02 / 8))
+    off = ExposureLedger(horizon=0)
+    off.record(["z"], rows, near)
+    assert off.level("z") == 0 and off.margin(0.02, "z") == pytest.approx(chance_margin(0.02))

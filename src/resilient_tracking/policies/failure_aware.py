@@ -40,12 +40,14 @@ from resilient_tracking.planning.layout import (
 from resilient_tracking.planning.margins import keep_out_values
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, register_policy
+from resilient_tracking.policies.exposure import ExposureLedger
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
 from resilient_tracking.team_config import TeamConfig
 
-#: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``)
-ZoneTables = tuple[np.ndarray, np.ndarray]
+#: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``),
+#: the zone key of each sensing-table row, and how many of those rows are sensing zones'
+ZoneRows = tuple[np.ndarray, np.ndarray, list[str], int]
 
 
 @register_policy("failure_aware")
@@ -72,14 +74,12 @@ class FailureAwarePolicy(PlanningPolicy):
         self.last_weights = np.zeros((config.n_robots, 5))
         #: the weights of each situation, computed once (the parameters are fixed at creation)
         self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
-        #: the last zone rows made: the zones they came from, w5, alone, β1, and the two tables
-        self._last_rows: tuple[tuple[ZoneEstimate, ...], float, bool, float, ZoneTables] | None = (
-            None
-        )
+        #: the last zone rows made: the zones they came from, what else they depend on, the rows
+        self._last_rows: tuple[tuple[ZoneEstimate, ...], tuple[object, ...], ZoneRows] | None = None
+        #: robot-steps spent near each known zone (with ``hazard_guard``)
+        self.exposure = ExposureLedger(params.exposure_horizon if params.hazard_guard else 0)
         #: circling direction (1 counter-clockwise, −1 clockwise) of each robot in Alg. 4
         self._circling: dict[int, float] = {}
-        #: β1 by (robots sensing, team size), with ``hazard_guard``
-        self._margins: dict[tuple[int, int], float] = {}
 
     # ------------------------------------------------------------------ the tick
 
@@ -115,7 +115,7 @@ class FailureAwarePolicy(PlanningPolicy):
             self.cooldown_until = obs.step + self.params.cooldown_steps
         cooling = obs.step < self.cooldown_until
         attacked = m - int(np.count_nonzero(obs.sensing_ok & obs.comm_ok))
-        beta1 = self._sensing_margin(int(np.count_nonzero(obs.sensing_ok)), m)
+        eps_sensing = self._sensing_risk(int(np.count_nonzero(obs.sensing_ok)), m)
 
         for k, robots in enumerate(belief.leagues):
             knowledge = belief.league_knowledge(robots)
@@ -125,9 +125,10 @@ class FailureAwarePolicy(PlanningPolicy):
             alone = len(robots) == 1
             weights = self._situation_weights(cooling, alone, attacked, m)
             mode = "individual" if alone else "cooldown" if cooling else "league"
-            szones, czones = self._zone_rows(knowledge, weights[4], alone, beta1)
+            rows = self._zone_rows(knowledge, weights[4], alone, eps_sensing)
+            self._record_exposure(rows, robots, obs)
             sensing = obs.sensing_ok[robots].astype(float)
-            q = self.tracking_inputs(belief, obs, robots, k, weights[:4], sensing, szones, czones)
+            q = self.tracking_inputs(belief, obs, robots, k, weights[:4], sensing, *rows[:2])
             decision.controls[robots] = self.solve(robots, q, obs.step, decision)
             self.last_weights[robots] = weights
             for i in robots:
@@ -149,66 +150,83 @@ class FailureAwarePolicy(PlanningPolicy):
             self._weights[key] = weights
         return self._weights[key].copy()
 
-    def _sensing_margin(self, sensing: int, m: int) -> float:
-        """β1 of eq. 7c: ``erfinv(1 − 2ε1)``, with ``hazard_guard`` at the risk level
-        ``ε1 · s/M`` for ``s`` of the ``M`` robots still sensing (the last sensors are worth
-        more: losing the last one leaves the team blind for good)."""
+    def _sensing_risk(self, sensing: int, m: int) -> float:
+        """ε1 of eq. 7c; with ``hazard_guard``, ``ε1 · s/M`` for ``s`` of the ``M`` robots still
+        sensing (the last sensors are worth more: losing the last one leaves the team blind for
+        good)."""
         if not self.params.hazard_guard or sensing >= m:
-            return self.beta1
-        key = (sensing, m)
-        if key not in self._margins:
-            self._margins[key] = chance_margin(self.params.eps1 * max(sensing, 1) / m)
-        return self._margins[key]
+            return self.params.eps1
+        return self.params.eps1 * max(sensing, 1) / m
 
     def _zone_rows(
-        self, knowledge: KnowledgeBase, w5: float, alone: bool, beta1: float
-    ) -> tuple[np.ndarray, np.ndarray]:
+        self, knowledge: KnowledgeBase, w5: float, alone: bool, eps_sensing: float
+    ) -> ZoneRows:
         """Parameter rows of the known zones (eqs. 7c, 7d with ``r_safe = r + w5``); the last
-        tick's rows again when the zones (immutable estimates), ``w5``, ``alone`` and ``β1`` are.
+        tick's rows again when the zones (immutable estimates), ``w5``, ``alone``, the sensing
+        risk level and the exposure levels are.
 
         A robot alone has no teammate to be jammed from; it keeps clear of known comm zones as
         of disks of radius ``comm_clearance`` (plus any observed clearance) instead. With
         ``hazard_guard``, league robots keep clear of that disc (plus ``w5``) too, besides eq. 7d,
-        around every comm zone not known to be temporary: its hazard can destroy a radio
-        whatever the links (a temporary one costs an outage, which eq. 7d and the cool-down
-        already weigh). With
-        ``guard_temporary_jammers`` off, a league has no eq. 7d rows for comm zones known to be
-        temporary.
+        around every comm zone not known to be temporary, at the sensing zones' risk level
+        ``ε1``: its hazard can destroy a radio whatever the links (a temporary one costs an
+        outage, which eq. 7d and the cool-down already weigh); and each zone's risk level
+        halves as the team's exposure to it grows (:mod:`~resilient_tracking.policies.exposure`).
+        With ``guard_temporary_jammers`` off, a league has no eq. 7d rows for comm zones known to
+        be temporary.
         """
         zones = tuple(knowledge.zones.values())
+        levels = tuple(self.exposure.level(z.key) for z in zones)
         last = self._last_rows
         if (
             last is None
-            or (last[1], last[2], last[3]) != (w5, alone, beta1)
+            or last[1] != (w5, alone, eps_sensing, levels)
             or len(last[0]) != len(zones)
             or any(z is not known for z, known in zip(zones, last[0], strict=True))
         ):
-            rows = self._make_zone_rows(knowledge, w5, alone, beta1)
-            last = self._last_rows = (zones, w5, alone, beta1, rows)
-        sensing, comm = last[4]
-        return sensing.copy(), comm.copy()
+            rows = self._make_zone_rows(knowledge, w5, alone, eps_sensing)
+            last = self._last_rows = (zones, (w5, alone, eps_sensing, levels), rows)
+        sensing, comm, keys, n_sensing = last[2]
+        return sensing.copy(), comm.copy(), keys, n_sensing
 
     def _make_zone_rows(
-        self, knowledge: KnowledgeBase, w5: float, alone: bool, beta1: float
-    ) -> ZoneTables:
-        rows_s = [
-            sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=beta1)
-            for z in knowledge.of_kind("sensing")
-        ]
+        self, knowledge: KnowledgeBase, w5: float, alone: bool, eps_sensing: float
+    ) -> ZoneRows:
+        guard = self.params.hazard_guard
+        margin = self.exposure.margin if guard else lambda eps, key: chance_margin(eps)
+        keys, rows_s = [], []
+        for z in knowledge.of_kind("sensing"):
+            beta = margin(eps_sensing, z.key)
+            rows_s.append(sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=beta))
+            keys.append(z.key)
+        n_sensing = len(rows_s)
         rows_c = []
         for z in knowledge.of_kind("comm"):
+            hazard = guard and z.persistence != "temporary"
+            beta = margin(self.params.eps1, z.key) if hazard else self.beta2
             if alone:
                 radius = self.params.comm_clearance + z.clearance
-                rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=self.beta2))
+                rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=beta))
+                keys.append(z.key)
                 continue
-            if self.params.hazard_guard and z.persistence != "temporary":
+            if hazard:
                 radius = self.params.comm_clearance + w5 + z.clearance
-                rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=self.beta2))
+                rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=beta))
+                keys.append(z.key)
             if self.params.guard_temporary_jammers or z.persistence != "temporary":
                 rows_c.append(
                     comm_row(z.mean, z.cov, z.size, beta=self.beta2, clearance=z.clearance)
                 )
-        return sensing_table(rows_s), comm_table(rows_c)
+        return sensing_table(rows_s), comm_table(rows_c), keys, n_sensing
+
+    def _record_exposure(self, rows: ZoneRows, robots: list[int], obs: TeamObservation) -> None:
+        """A step of exposure for each robot near a keep-out disc that can still harm it: a
+        sensing zone's while its sensor works, a comm zone's while its radio does."""
+        table, _, keys, n_sensing = rows
+        sensing = [i for i in robots if obs.sensing_ok[i]]
+        radio = [i for i in robots if obs.comm_ok[i]]
+        self.exposure.record(keys[:n_sensing], table[:n_sensing], obs.positions[sensing])
+        self.exposure.record(keys[n_sensing:], table[n_sensing:], obs.positions[radio])
 
     def _circle(
         self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation, decision: Decision
@@ -237,8 +255,8 @@ class FailureAwarePolicy(PlanningPolicy):
         if self.params.hazard_guard and obs.sensing_ok[robot]:
             # a circle that crosses a known sensing zone turns back at its keep-out disc, so
             # the robot's sensor survives the signal (the arc still shows the circle)
-            rows, _ = self._make_zone_rows(knowledge, 0.0, True, self.beta1)
-            rows = rows[: len(knowledge.of_kind("sensing"))]
+            table, _, _, n_sensing = self._make_zone_rows(knowledge, 0.0, True, self.params.eps1)
+            rows = table[:n_sensing]
             if len(rows) and _enters(position, velocity * self.config.dt, rows):
                 direction = -direction
                 velocity = along(direction)

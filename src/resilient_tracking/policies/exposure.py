@@ -1,0 +1,70 @@
+"""Exposure over time: the risk a team has already run near each known zone (belief only).
+
+The chance constraints of eqs. 7c and 7d bound the risk of *one* step: a robot may stand where
+the zone's centre lies within its keep-out radius with probability ``ε``. A robot that holds
+station at the edge of a keep-out disc for a hundred steps runs that risk a hundred times.
+
+The ledger counts, per known zone, the robot-steps spent *near* its keep-out disc: where the
+keep-out margin ``h`` of eq. 7c (docs/model.md §5) is at most one spread ``√(2 λ_max(Σ))`` of the
+zone estimate, so the band scales with how uncertain the zone is. The risk level of the zone's
+constraint then halves each time its exposure doubles past a horizon ``H`` (steps)::
+
+    ε_z = ε / 2^k,   k = ⌊log₂(1 + n_z / H)⌋
+
+Each halving lasts twice as long as the last, so the risk spent per period stays about ``ε H``
+and the total grows with the logarithm of the time spent near the zone instead of linearly; the
+keep-out disc widens in steps (its radius grows with ``β = erfinv(1 − 2ε_z)``), which also keeps
+the route maps built on it reusable between steps. Exposure is never forgotten: the risk already
+run is spent.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from resilient_tracking.planning.adaptation import chance_margin
+from resilient_tracking.planning.layout import SensingRow
+from resilient_tracking.planning.margins import keep_out_values
+
+
+class ExposureLedger:
+    """Robot-steps spent near each known zone, by the zone estimate's key."""
+
+    def __init__(self, horizon: int):
+        #: steps of exposure after which the risk level first halves (0: never)
+        self.horizon = horizon
+        self.steps: dict[str, int] = {}
+        self._margins: dict[tuple[float, int], float] = {}
+
+    def level(self, key: str) -> int:
+        """How many times the risk level of zone ``key`` has halved."""
+        if self.horizon <= 0:
+            return 0
+        return int(math.floor(math.log2(1.0 + self.steps.get(key, 0) / self.horizon)))
+
+    def margin(self, eps: float, key: str) -> float:
+        """``β`` of zone ``key`` at base risk level ``eps`` (halved ``level(key)`` times)."""
+        k = (eps, self.level(key))
+        if k not in self._margins:
+            self._margins[k] = chance_margin(eps / 2 ** k[1])
+        return self._margins[k]
+
+    def record(self, keys: list[str], rows: np.ndarray, positions: np.ndarray) -> None:
+        """Add a step of exposure to zone ``keys[r]`` for each position near keep-out row
+        ``rows[r]`` (a :class:`~resilient_tracking.planning.layout.SensingRow`)."""
+        if self.horizon <= 0 or not len(keys) or not len(positions):
+            return
+        gaussians = rows[:, SensingRow.GAUSSIAN]
+        band = np.sqrt(2.0 * np.maximum(_largest_variance(gaussians), 0.0))
+        for x in np.asarray(positions, dtype=float).reshape(-1, 2):
+            h = keep_out_values(x, gaussians, rows[:, SensingRow.R_SAFE], rows[:, SensingRow.BETA])
+            for r in np.flatnonzero(h <= band):
+                self.steps[keys[r]] = self.steps.get(keys[r], 0) + 1
+
+
+def _largest_variance(gaussians: np.ndarray) -> np.ndarray:
+    """``λ_max`` of each row's covariance (entries xx, xy, yy in columns 2–4)."""
+    xx, xy, yy = gaussians[:, 2], gaussians[:, 3], gaussians[:, 4]
+    return np.asarray(0.5 * (xx + yy) + np.hypot(0.5 * (xx - yy), xy))
