@@ -158,7 +158,7 @@ def elf_damage(library: Path) -> str | None:
                 fields = entry.unpack_from(table, k * phentsize)
                 needed = max(needed, fields[at_offset] + fields[at_size])
     if needed > size:
-        return f"truncated ({size} bytes, its ELF headers need {needed})"
+        return f"truncated: {size} bytes, its ELF headers need {needed}"
     return None
 
 
