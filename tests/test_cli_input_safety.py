@@ -1,11 +1,15 @@
-"""Text from the person's files and arguments reaches the terminal escaped
-(docs/reliability.md §10)."""
+"""Text from the person's files and arguments reaches the terminal escaped, and run folders
+whose manifest fields have the wrong type are refused with one line (docs/reliability.md §10)."""
 
 from __future__ import annotations
 
+import json
 import logging
 import os
+import shutil
+from pathlib import Path
 
+import pytest
 import yaml
 
 from helpers import SCENARIOS
@@ -53,3 +57,57 @@ def test_a_scenario_name_with_escape_codes_reaches_the_terminal_escaped(tmp_path
     assert not [c for c in ACTIVE if c in text], text
     assert "evil\\x1b]0;pwned\\x07\\x1b[31mRED\\u202e [failure_aware]" in printed.err  # the bar
     assert "evil\\x1b]0;pwned\\x07\\x1b[31mRED\\u202e.yaml: ok" in printed.out
+
+
+@pytest.fixture(scope="module")
+def run_folder(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("run") / "run"
+    assert (
+        main(["run", "sensing-temp", "--steps", "3", "--no-figures", "-q", "--out", str(folder)])
+        == 0
+    )
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("seed", "x", "seed: expected a non-negative integer, got 'x'"),
+        ("seed", 1.5, "seed: expected a non-negative integer, got 1.5"),
+        ("seed", True, "seed: expected a non-negative integer, got True"),
+        ("seed", -1, "seed: expected a non-negative integer, got -1"),
+        ("dt", "0.1", "scenario.dt: expected a positive number of seconds, got '0.1'"),
+        ("dt", 0, "scenario.dt: expected a positive number of seconds, got 0"),
+        ("dt", [0.1], "scenario.dt: expected a positive number of seconds, got [0.1]"),
+    ],
+)
+def test_animate_names_a_manifest_field_of_the_wrong_type(
+    field, value, message, run_folder, tmp_path, capsys
+):
+    run = tmp_path / "run"
+    shutil.copytree(run_folder, run)
+    manifest = json.loads((run / "manifest.json").read_text())
+    (manifest["scenario"] if field == "dt" else manifest)[field] = value
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    assert main(["animate", str(run), "--frames", "2", "-q"]) == 1
+    err = capsys.readouterr().err
+    assert one_error_line(err) == f"error: {run / 'manifest.json'}: {message}"
+    assert not (run / "figures").exists()
+
+
+def test_animate_reports_a_drawing_error_itself_before_writing(
+    run_folder, tmp_path, monkeypatch, capsys
+):
+    """The movie writer hides an error of the first frame behind an IndexError of its own: the
+    first frame is drawn before any file is opened."""
+    from resilient_tracking.viz import animate
+
+    def broken(*args, **kwargs):
+        raise ValueError("cannot draw this run")
+
+    monkeypatch.setattr(animate, "plot_trajectory_map", broken)
+    run = tmp_path / "run"
+    shutil.copytree(run_folder, run)
+    assert main(["animate", str(run), "--frames", "2", "-q"]) == 1
+    assert one_error_line(capsys.readouterr().err) == "error: cannot draw this run"
+    assert not (run / "figures").exists()
