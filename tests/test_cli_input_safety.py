@@ -1,5 +1,6 @@
 """Text from the person's files and arguments reaches the terminal escaped, and run folders
-whose manifest fields have the wrong type are refused with one line (docs/reliability.md §10)."""
+whose manifest fields have the wrong type and negative generator seeds are refused with one line
+before anything is created (docs/reliability.md §10)."""
 
 from __future__ import annotations
 
@@ -111,3 +112,10 @@ def test_animate_reports_a_drawing_error_itself_before_writing(
     assert main(["animate", str(run), "--frames", "2", "-q"]) == 1
     assert one_error_line(capsys.readouterr().err) == "error: cannot draw this run"
     assert not (run / "figures").exists()
+
+
+def test_generate_refuses_a_negative_seed_before_creating_anything(tmp_path, capsys):
+    out = tmp_path / "generated"
+    assert main(["generate", "--seed", "-1", "-n", "2", "--out", str(out), "-q"]) == 1
+    assert one_error_line(capsys.readouterr().err) == "error: --seed: must be non-negative"
+    assert not out.exists()

@@ -328,6 +328,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     if _out_of_range("-n", args.n, 1, MAX_SEEDS):
         return 1
+    if args.seed is not None and args.seed < 0:
+        print("error: --seed: must be non-negative", file=sys.stderr)
+        return 1
     out = Path(args.out)
     if _not_a_folder(out):
         return 1
