@@ -1,6 +1,6 @@
 """Text from the person's files and arguments reaches the terminal escaped, and run folders
-whose manifest fields have the wrong type and negative generator seeds are refused with one line
-before anything is created (docs/reliability.md §10)."""
+whose manifest fields have the wrong type, negative generator seeds and names that are not UTF-8
+are refused with one line before anything is created (docs/reliability.md §10)."""
 
 from __future__ import annotations
 
@@ -119,3 +119,37 @@ def test_generate_refuses_a_negative_seed_before_creating_anything(tmp_path, cap
     assert main(["generate", "--seed", "-1", "-n", "2", "--out", str(out), "-q"]) == 1
     assert one_error_line(capsys.readouterr().err) == "error: --seed: must be non-negative"
     assert not out.exists()
+
+
+NOT_UTF8 = os.fsdecode(b"name\xff\xfe")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "sensing-temp", "--steps", "2", "--out", "BAD"],
+        ["reproduce", "sensing-temp", "--quick", "--out", "BAD"],
+        ["compare", "sensing-temp", "--seeds", "1", "--out", "BAD"],
+        ["compare", "BAD.yaml", "--seeds", "1", "--out", "OK"],
+        ["animate", "BAD"],
+    ],
+)
+def test_a_name_that_is_not_utf8_is_refused_before_any_work(argv, tmp_path, capsys):
+    if "BAD.yaml" in argv:
+        shutil.copy(SCENARIOS / "sensing-temp.yaml", tmp_path / f"{NOT_UTF8}.yaml")
+    before = sorted(os.listdir(tmp_path))
+    given = [
+        str(tmp_path / a.replace("BAD", NOT_UTF8)) if a in ("BAD", "BAD.yaml", "OK") else a
+        for a in argv
+    ]
+    assert main([*given, "-q"]) == 1
+    line = one_error_line(capsys.readouterr().err)
+    assert "name\\xff\\xfe" in line and "not UTF-8 text" in line
+    assert sorted(os.listdir(tmp_path)) == before
+
+
+def test_generate_writes_into_a_folder_whose_name_is_not_utf8(tmp_path, capsys):
+    out = tmp_path / NOT_UTF8
+    assert main(["generate", "-n", "1", "--out", str(out), "-q"]) == 0
+    assert (out / "g00.yaml").exists()
+    assert "name\\xff\\xfe/g00.yaml" in capsys.readouterr().out

@@ -56,6 +56,22 @@ def shown(text: object, lines: bool = False) -> str:
     return "".join(out)
 
 
+def _not_utf8(option: str, path: object) -> bool:
+    """Print an error and return True when ``path`` holds bytes that are not UTF-8 (a file name
+    in another encoding): run tables (parquet) cannot be written or read under such a name, so
+    it is refused before any work."""
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        print(
+            f"error: {option}: {shown(path)}: the name is not UTF-8 text, which run tables "
+            "and reports cannot hold; choose a UTF-8 name",
+            file=sys.stderr,
+        )
+        return True
+    return False
+
+
 class _ShownFormatter(logging.Formatter):
     """Log lines made safe for the terminal (:func:`shown`), as every other printed text."""
 
@@ -136,6 +152,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
     out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}")
+    if _not_utf8("--out", out):
+        return 1
     with contextlib.ExitStack() as held:
         try:  # before the episode: a refused folder costs no run
             held.enter_context(folder_lock(out))
@@ -224,7 +242,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return 1
     out = Path(args.out)
-    if _not_a_folder(out):
+    if _not_utf8("--out", out) or _not_a_folder(out):
         return 1
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
@@ -264,6 +282,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
+    if any(_not_utf8("scenario", path) for path in args.scenario):
+        return 1
     try:
         seeds = parse_seeds(args.seeds, MAX_SEEDS)
         overrides = [parse_override(text) for text in args.set]
@@ -276,7 +296,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return 1
     out = Path(args.out)
-    if _not_a_folder(out):
+    if _not_utf8("--out", out) or _not_a_folder(out):
         return 1
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
@@ -296,6 +316,8 @@ def cmd_animate(args: argparse.Namespace) -> int:
     if _out_of_range("--frames", args.frames, 2, MAX_FRAMES):
         return 1
     if _out_of_range("--fps", args.fps, 1, MAX_FPS):
+        return 1
+    if _not_utf8("run folder", args.run_dir):
         return 1
     passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
     try:
@@ -424,6 +446,8 @@ def cmd_node(args: argparse.Namespace) -> int:
         return 1
     policy = args.policy or scenario.policy.name
     out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
+    if _not_utf8("--out", out):
+        return 1
     if out.exists() and not is_run_folder(out):
         print(f"error: --out: {shown(out)} exists and is not a run folder", file=sys.stderr)
         return 1
