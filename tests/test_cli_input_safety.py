@@ -153,3 +153,29 @@ def test_generate_writes_into_a_folder_whose_name_is_not_utf8(tmp_path, capsys):
     assert main(["generate", "-n", "1", "--out", str(out), "-q"]) == 0
     assert (out / "g00.yaml").exists()
     assert "name\\xff\\xfe/g00.yaml" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "sensing-temp", "--steps", "2", "--out", ""],
+        ["reproduce", "sensing-temp", "--quick", "--out", ""],
+        ["compare", "sensing-temp", "--seeds", "1", "--out", ""],
+        ["generate", "-n", "1", "--out", ""],
+        ["animate", ""],
+        ["animate", "RUN", "--out", ""],
+    ],
+)
+def test_an_empty_name_is_refused_before_any_work(argv, run_folder, tmp_path, capsys, monkeypatch):
+    """An empty name (an unset shell variable) would mean the current folder."""
+    monkeypatch.chdir(tmp_path)
+    argv = [str(run_folder) if a == "RUN" else a for a in argv]
+    assert main([*argv, "-q"]) == 1
+    assert one_error_line(capsys.readouterr().err).endswith(": empty; give a name")
+    assert os.listdir(tmp_path) == []
+
+
+def test_animate_refuses_a_folder_as_its_output_file(run_folder, tmp_path, capsys):
+    assert main(["animate", str(run_folder), "--out", str(tmp_path), "-q"]) == 1
+    assert one_error_line(capsys.readouterr().err).endswith("is a folder; give a GIF file name")
+    assert os.listdir(tmp_path) == []

@@ -56,12 +56,18 @@ def shown(text: object, lines: bool = False) -> str:
     return "".join(out)
 
 
-def _not_utf8(option: str, path: object) -> bool:
-    """Print an error and return True when ``path`` holds bytes that are not UTF-8 (a file name
-    in another encoding): run tables (parquet) cannot be written or read under such a name, so
-    it is refused before any work."""
+def _unusable_name(option: str, path: str | None) -> bool:
+    """Print an error and return True when ``path`` is given and empty (an unset shell variable,
+    say: it would mean the current folder), or holds bytes that are not UTF-8 (a file name in
+    another encoding: run tables, parquet, cannot be written or read under it). Checked before
+    any work."""
+    if path is None:
+        return False
+    if not path:
+        print(f"error: {option}: empty; give a name", file=sys.stderr)
+        return True
     try:
-        str(path).encode("utf-8")
+        path.encode("utf-8")
     except UnicodeEncodeError:
         print(
             f"error: {option}: {shown(path)}: the name is not UTF-8 text, which run tables "
@@ -151,9 +157,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
-    out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}")
-    if _not_utf8("--out", out):
+    if _unusable_name("--out", args.out):
         return 1
+    out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}")
     with contextlib.ExitStack() as held:
         try:  # before the episode: a refused folder costs no run
             held.enter_context(folder_lock(out))
@@ -241,8 +247,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     except ScenarioError as err:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return 1
+    if _unusable_name("--out", args.out):
+        return 1
     out = Path(args.out)
-    if _not_utf8("--out", out) or _not_a_folder(out):
+    if _not_a_folder(out):
         return 1
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
@@ -282,7 +290,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
-    if any(_not_utf8("scenario", path) for path in args.scenario):
+    if any(_unusable_name("scenario", path) for path in args.scenario):
         return 1
     try:
         seeds = parse_seeds(args.seeds, MAX_SEEDS)
@@ -295,8 +303,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     except (ScenarioError, ValueError) as err:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return 1
+    if _unusable_name("--out", args.out):
+        return 1
     out = Path(args.out)
-    if _not_utf8("--out", out) or _not_a_folder(out):
+    if _not_a_folder(out):
         return 1
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(
@@ -317,7 +327,10 @@ def cmd_animate(args: argparse.Namespace) -> int:
         return 1
     if _out_of_range("--fps", args.fps, 1, MAX_FPS):
         return 1
-    if _not_utf8("run folder", args.run_dir):
+    if _unusable_name("run folder", args.run_dir) or _unusable_name("--out", args.out):
+        return 1
+    if args.out is not None and Path(args.out).is_dir():
+        print(f"error: --out: {shown(args.out)} is a folder; give a GIF file name", file=sys.stderr)
         return 1
     passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
     try:
@@ -352,6 +365,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
         return 1
     if args.seed is not None and args.seed < 0:
         print("error: --seed: must be non-negative", file=sys.stderr)
+        return 1
+    if not args.out:
+        print("error: --out: empty; give a name", file=sys.stderr)
         return 1
     out = Path(args.out)
     if _not_a_folder(out):
@@ -445,9 +461,9 @@ def cmd_node(args: argparse.Namespace) -> int:
         print(f"error: --policy: {shown(why)}", file=sys.stderr)
         return 1
     policy = args.policy or scenario.policy.name
-    out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
-    if _not_utf8("--out", out):
+    if _unusable_name("--out", args.out):
         return 1
+    out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
     if out.exists() and not is_run_folder(out):
         print(f"error: --out: {shown(out)} exists and is not a run folder", file=sys.stderr)
         return 1
