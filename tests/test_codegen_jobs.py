@@ -189,7 +189,47 @@ def test_a_cached_library_without_checksum_is_load_tested(cache):
     assert Path(f"{job.library}.sha256").exists()  # recorded now
     Path(f"{job.library}.sha256").unlink()
     replace_with(job.library, b"\x7fELF truncated")
-    assert library_cache.damage_of(job.library, job.names) == "does not load"
+    assert library_cache.damage_of(job.library, job.names) == "not an ELF library"
+
+
+def test_a_truncated_library_without_checksum_is_rebuilt_not_loaded(cache, caplog):
+    """Mapping a truncated library kills the process with SIGBUS: it must be found damaged
+    from its ELF headers, at any length, and rebuilt with one warning."""
+    job = codegen.compile_functions(functions(), "cut", key="cut")
+    assert job is not None and job.wait()
+    whole = job.library.read_bytes()
+    Path(f"{job.library}.sha256").unlink()
+    for length in (0, 10, 63, 64, 200, len(whole) // 2, len(whole) - 1):
+        replace_with(job.library, whole[:length])
+        assert library_cache.damage_of(job.library, job.names) is not None, length
+    assert not Path(f"{job.library}.sha256").exists()
+    codegen._REBUILT.discard(job.library.name)
+    with caplog.at_level(logging.WARNING, logger=codegen.__name__):
+        again = codegen.compile_functions(functions(), "cut", key="cut")
+        assert again is not None and again.wait()
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1 and "truncated" in warnings[0], warnings
+    assert again.library.read_bytes() == whole
+    assert float(again.load()["f"]([1, 2, 3])[0]) == pytest.approx(14 + 0.8414709848)
+
+
+def test_a_library_that_crashes_when_loaded_is_checked_in_a_child_process(cache, tmp_path):
+    """A whole ELF library that kills whoever loads it (here its constructor raises SIGBUS) is
+    found damaged without this process loading it."""
+    source = tmp_path / "boom.c"
+    source.write_text(
+        "#include <signal.h>\n"
+        "__attribute__((constructor)) static void boom(void) { raise(SIGBUS); }\n"
+        "int boom_f(void) { return 1; }\n"
+    )
+    library = tmp_path / "boom.so"
+    subprocess.run(
+        [codegen.compiler(), "-shared", "-fPIC", "-o", str(library), str(source)], check=True
+    )
+    assert library_cache.elf_damage(library) is None
+    damage = library_cache.damage_of(library, {"f": "boom_f"})
+    assert damage == f"loading it kills a process (signal {int(signal.SIGBUS)})"
+    assert not Path(f"{library}.sha256").exists()
 
 
 def test_the_cache_is_pruned_least_recently_used_first(tmp_path):

@@ -36,6 +36,55 @@ def _out_of_range(name: str, value: float | None, low: float, high: float) -> bo
     return True
 
 
+def shown(text: object, lines: bool = False) -> str:
+    """``text`` safe to print to a terminal: every character a terminal would act on instead of
+    showing it (escape sequences, carriage returns, bells, Unicode format characters such as a
+    right-to-left override) is written as its escape (``\\x1b``, ``\\u202e``), and so are the
+    bytes of a file name that are not UTF-8 (``\\xff``); newlines too, unless ``lines``. Every
+    text that comes from the person's files or arguments goes through it before it is printed."""
+    text = str(text)
+    if text.isprintable():
+        return text
+    out = []
+    for char in text:
+        if char.isprintable() or char == "\t" or (lines and char == "\n"):
+            out.append(char)
+        elif "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (os.fsdecode)
+            out.append(f"\\x{ord(char) - 0xDC00:02x}")
+        else:
+            out.append(char.encode("unicode_escape").decode("ascii"))
+    return "".join(out)
+
+
+def _unusable_name(option: str, path: str | None) -> bool:
+    """Print an error and return True when ``path`` is given and empty (an unset shell variable,
+    say: it would mean the current folder), or holds bytes that are not UTF-8 (a file name in
+    another encoding: run tables, parquet, cannot be written or read under it). Checked before
+    any work."""
+    if path is None:
+        return False
+    if not path:
+        print(f"error: {option}: empty; give a name", file=sys.stderr)
+        return True
+    try:
+        path.encode("utf-8")
+    except UnicodeEncodeError:
+        print(
+            f"error: {option}: {shown(path)}: the name is not UTF-8 text, which run tables "
+            "and reports cannot hold; choose a UTF-8 name",
+            file=sys.stderr,
+        )
+        return True
+    return False
+
+
+class _ShownFormatter(logging.Formatter):
+    """Log lines made safe for the terminal (:func:`shown`), as every other printed text."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return shown(super().format(record), lines=True)
+
+
 def _step(bar: tqdm, n: int) -> None:
     """Advance a progress bar, first stopping if Ctrl-C or SIGTERM came."""
     interrupts.check()
@@ -49,7 +98,7 @@ def _load(path: str) -> Scenario | None:
     try:
         return scenarios.load(path)
     except ScenarioError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return None
 
 
@@ -64,8 +113,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
             status = 1
         else:
             print(
-                f"{path}: ok ({len(scenario.robots)} robots, {len(scenario.targets)} targets, "
-                f"{len(scenario.zones)} zones, {scenario.steps} steps)"
+                f"{shown(path)}: ok ({len(scenario.robots)} robots, "
+                f"{len(scenario.targets)} targets, {len(scenario.zones)} zones, "
+                f"{scenario.steps} steps)"
             )
     return status
 
@@ -88,7 +138,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return 1
     why = _policy_problem(args.policy)
     if why is not None:
-        print(f"error: --policy: {why}", file=sys.stderr)
+        print(f"error: --policy: {shown(why)}", file=sys.stderr)
         return 1
     if args.steps is not None:
         if args.steps < 1:
@@ -97,7 +147,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         try:
             scenario = scenario.with_overrides(steps=args.steps)
         except ScenarioError as err:
-            print(f"error: --steps: {err}", file=sys.stderr)
+            print(f"error: --steps: {shown(err, lines=True)}", file=sys.stderr)
             return 1
     if args.seed is not None and args.seed < 0:
         print("error: --seed: must be non-negative", file=sys.stderr)
@@ -107,6 +157,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     policy = args.policy or scenario.policy.name
     seed = scenario.seed if args.seed is None else args.seed
+    if _unusable_name("--out", args.out):
+        return 1
     out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}")
     with contextlib.ExitStack() as held:
         try:  # before the episode: a refused folder costs no run
@@ -116,7 +168,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             why = str(err)
             if isinstance(err, OSError) and err.strerror:
                 why = f"{out}: cannot write there ({err.strerror}: {err.filename})"
-            print(f"error: --out: {why}", file=sys.stderr)
+            print(f"error: --out: {shown(why)}", file=sys.stderr)
             return 1
         return _run_into(args, scenario, policy, seed, out)
 
@@ -137,7 +189,7 @@ def _run_into(
     try:
         with tqdm(
             total=scenario.steps,
-            desc=f"{scenario.name} [{policy}]",
+            desc=shown(f"{scenario.name} [{policy}]"),
             unit="step",
             disable=args.quiet,
         ) as bar:
@@ -148,8 +200,10 @@ def _run_into(
     except Exception as err:  # report, never a traceback; nothing is left half-written
         logging.getLogger(__name__).debug("run failed", exc_info=True)
         print(
-            f"error: {args.scenario}: run failed ({type(err).__name__}: {err}); "
-            f"nothing written to {out} (rerun with -vv for the traceback)",
+            shown(
+                f"error: {args.scenario}: run failed ({type(err).__name__}: {err}); "
+                f"nothing written to {out} (rerun with -vv for the traceback)"
+            ),
             file=sys.stderr,
         )
         return 2
@@ -157,7 +211,7 @@ def _run_into(
     events = result["events"]
     attacks = int((events["event"] == "attack").sum()) if len(events) else 0
     print(
-        f"wrote {out}: {len(team)} steps, mean trace {team['trace'].mean():.3g}, "
+        f"wrote {shown(out)}: {len(team)} steps, mean trace {team['trace'].mean():.3g}, "
         f"mean MSE {team['mse'].mean():.3g}, {attacks} attacks, "
         f"{len(figures)} figures, {result.manifest['wall_time_s']:.2f} s"
     )
@@ -165,7 +219,7 @@ def _run_into(
     if len(invalid):
         first = invalid.iloc[0]
         print(
-            f"warning: {len(invalid)} invalid decision(s) of the policy: {first['detail']} "
+            f"warning: {len(invalid)} invalid decision(s) of the policy: {shown(first['detail'])} "
             f"(first at step {first['step']}, robot {first['robot']}); those robots held "
             "position (events.parquet, event invalid_decision)",
             file=sys.stderr,
@@ -188,10 +242,12 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         experiments = select(args.names, quick=args.quick)
         plan = {e.name: tasks(e, args.seeds) for e in experiments}
     except KeyError as err:
-        print(f"error: {err.args[0]}", file=sys.stderr)
+        print(f"error: {shown(err.args[0])}", file=sys.stderr)
         return 1
     except ScenarioError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err, lines=True)}", file=sys.stderr)
+        return 1
+    if _unusable_name("--out", args.out):
         return 1
     out = Path(args.out)
     if _not_a_folder(out):
@@ -203,17 +259,20 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         )
     command = " ".join(["rtrack reproduce", *args.argv])
     report = write_report(experiments, plan, out, command, jobs=args.jobs)
-    print(f"{len(ran)} run(s) done, {len(everything) - len(ran)} already stored; wrote {report}")
+    print(
+        f"{len(ran)} run(s) done, {len(everything) - len(ran)} already stored; "
+        f"wrote {shown(report)}"
+    )
     for line in report.read_text().splitlines():
         if line.startswith("**") and ("claims hold" in line or "targets hold" in line):
-            print(line.replace("**", ""))
+            print(shown(line.replace("**", "")))
     return 0
 
 
 def _not_a_folder(out: Path) -> bool:
     """Whether ``--out`` names something that is not a folder (said to the person)."""
     if out.exists() and not out.is_dir():
-        print(f"error: --out: {out} exists and is not a folder", file=sys.stderr)
+        print(f"error: --out: {shown(out)} exists and is not a folder", file=sys.stderr)
         return True
     return False
 
@@ -231,6 +290,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
+    if any(_unusable_name("scenario", path) for path in args.scenario):
+        return 1
     try:
         seeds = parse_seeds(args.seeds, MAX_SEEDS)
         overrides = [parse_override(text) for text in args.set]
@@ -240,7 +301,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
         )
         tasks = study.tasks()
     except (ScenarioError, ValueError) as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err, lines=True)}", file=sys.stderr)
+        return 1
+    if _unusable_name("--out", args.out):
         return 1
     out = Path(args.out)
     if _not_a_folder(out):
@@ -252,7 +315,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     given = list(sys.argv[1:] if args.argv is None else args.argv)
     command = " ".join(["rtrack compare", *given[given.index("compare") + 1 :]])
     report = write_compare_report(study, tasks, out, command)
-    print(f"{len(ran)} run(s) done, {len(tasks) - len(ran)} already stored; wrote {report}")
+    print(f"{len(ran)} run(s) done, {len(tasks) - len(ran)} already stored; wrote {shown(report)}")
     return 0
 
 
@@ -263,6 +326,11 @@ def cmd_animate(args: argparse.Namespace) -> int:
     if _out_of_range("--frames", args.frames, 2, MAX_FRAMES):
         return 1
     if _out_of_range("--fps", args.fps, 1, MAX_FPS):
+        return 1
+    if _unusable_name("run folder", args.run_dir) or _unusable_name("--out", args.out):
+        return 1
+    if args.out is not None and Path(args.out).is_dir():
+        print(f"error: --out: {shown(args.out)} is a folder; give a GIF file name", file=sys.stderr)
         return 1
     passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
     try:
@@ -277,9 +345,9 @@ def cmd_animate(args: argparse.Namespace) -> int:
                 progress=lambda n: bar.update(n),
             )
     except (OSError, ValueError) as err:  # each names its file
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err)}", file=sys.stderr)
         return 1
-    print("wrote " + ", ".join(str(p) for p in written))
+    print("wrote " + ", ".join(shown(p) for p in written))
     if len(written) == 1:
         print("no MP4: no ffmpeg found; pip install 'resilient-tracking[video]' for one")
     return 0
@@ -295,13 +363,19 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     if _out_of_range("-n", args.n, 1, MAX_SEEDS):
         return 1
+    if args.seed is not None and args.seed < 0:
+        print("error: --seed: must be non-negative", file=sys.stderr)
+        return 1
+    if not args.out:
+        print("error: --out: empty; give a name", file=sys.stderr)
+        return 1
     out = Path(args.out)
     if _not_a_folder(out):
         return 1
     names = [out / f"g{i:02d}.yaml" for i in range(args.n)]
     taken = [path for path in names if path.exists()]
     if taken:
-        print(f"error: --out: {taken[0]} exists (nothing is replaced)", file=sys.stderr)
+        print(f"error: --out: {shown(taken[0])} exists (nothing is replaced)", file=sys.stderr)
         return 1
     seed = SUITE_SEED if args.seed is None else args.seed
     stored = stored_suite(args.n) if seed == SUITE_SEED else []
@@ -313,7 +387,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
             data = scenario.model_dump(mode="json", exclude_defaults=True)
             write_text_atomic(path, header + yaml.safe_dump(data, sort_keys=False))
             _step(bar, 1)
-    print(f"wrote {args.n} scenarios to {out} (run one with: rtrack run {names[0]})")
+    print(shown(f"wrote {args.n} scenarios to {out} (run one with: rtrack run {names[0]})"))
     return 0
 
 
@@ -324,7 +398,7 @@ def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] |
 
         require_extra()
     except ImportError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err)}", file=sys.stderr)
         return None
     from resilient_tracking.ros2.topics import NodeSettings
 
@@ -384,17 +458,19 @@ def cmd_node(args: argparse.Namespace) -> int:
 
     why = _policy_problem(args.policy)
     if why is not None:
-        print(f"error: --policy: {why}", file=sys.stderr)
+        print(f"error: --policy: {shown(why)}", file=sys.stderr)
         return 1
     policy = args.policy or scenario.policy.name
+    if _unusable_name("--out", args.out):
+        return 1
     out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
     if out.exists() and not is_run_folder(out):
-        print(f"error: --out: {out} exists and is not a run folder", file=sys.stderr)
+        print(f"error: --out: {shown(out)} exists and is not a run folder", file=sys.stderr)
         return 1
     try:
         bag = BagRecorder(args.bag) if args.bag else None
     except FileExistsError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err)}", file=sys.stderr)
         return 1
     from resilient_tracking.sim.episode import start_truth
 
@@ -422,8 +498,10 @@ def cmd_node(args: argparse.Namespace) -> int:
     write_run(result, out)
     done = len(result["team"])
     print(
-        f"wrote {out}: {done}/{scenario.steps} steps, {node.holds} holds, "
-        f"{node.dropped} dropped messages" + (f"; bag {args.bag}" if bag else "")
+        shown(
+            f"wrote {out}: {done}/{scenario.steps} steps, {node.holds} holds, "
+            f"{node.dropped} dropped messages" + (f"; bag {args.bag}" if bag else "")
+        )
     )
     return 0 if done == scenario.steps else 3
 
@@ -443,7 +521,7 @@ def cmd_world(args: argparse.Namespace) -> int:
         with tqdm(total=scenario.steps, desc="world", unit="step", disable=args.quiet) as bar:
             done = node.run(stop=stop, progress=lambda n: bar.update(n))  # type: ignore[arg-type]
     except (ValueError, TimeoutError) as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err)}", file=sys.stderr)
         return 1
     print(f"world: {done}/{scenario.steps} steps")
     return 0 if done == scenario.steps else 3
@@ -634,7 +712,9 @@ def main(argv: list[str] | None = None) -> int:
         given = list(sys.argv[1:] if argv is None else argv)
         args.argv = given[given.index("reproduce") + 1 :]
     level = logging.WARNING - 10 * min(args.verbose, 2)
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    handler = logging.StreamHandler()
+    handler.setFormatter(_ShownFormatter("%(levelname)s %(name)s: %(message)s"))
+    logging.basicConfig(level=level, handlers=[handler])
     # libraries' warnings (e.g. joblib's "a worker stopped") are for developers: through
     # logging, shown with -v only
     logging.captureWarnings(True)
@@ -658,10 +738,10 @@ def main(argv: list[str] | None = None) -> int:
             interrupts.exit_now(143 if term else 130)
         return 143 if term else 130
     except FolderBusyError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err)}", file=sys.stderr)
         return 1
     except OSError as err:  # a file we could not write or read; the message names it
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {shown(err)}", file=sys.stderr)
         return 1
 
 

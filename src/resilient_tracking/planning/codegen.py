@@ -19,8 +19,9 @@ automatically.
 - :mod:`~.compile_supervisor` — the program that supervises one compile (slots, killing the
   compiler's process tree, publishing the library).
 
-A cached library whose checksum does not match, or that does not load, is removed and rebuilt
-once, with one warning line.
+A cached library whose checksum does not match or, without a checksum, that is not a whole ELF
+file or does not load in a child process, is removed and rebuilt once, with one warning line; a
+damaged library is never loaded into this process.
 """
 
 from __future__ import annotations

@@ -9,6 +9,7 @@ missing columns instead of a ``KeyError`` deep in a plot.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,7 @@ import pandas as pd
 from resilient_tracking.runs.folders import read_manifest
 from resilient_tracking.runs.records import EpisodeResult
 from resilient_tracking.runs.schema import REPRODUCIBLE, TABLES
+from resilient_tracking.scenario.errors import short_repr
 
 logger = logging.getLogger(__name__)
 
@@ -139,12 +141,35 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
     return df
 
 
+def manifest_problem(manifest: dict[str, Any]) -> str | None:
+    """Why the manifest fields that :class:`RunData` reads (``seed``, ``policy``, and the
+    scenario's ``name`` and ``dt``) cannot be used, naming the field, or None when they can
+    (each may be absent)."""
+    seed = manifest.get("seed")
+    if seed is not None and (type(seed) is not int or seed < 0):
+        return f"seed: expected a non-negative integer, got {short_repr(seed, 40)}"
+    policy = manifest.get("policy")
+    if policy is not None and not isinstance(policy, str):
+        return f"policy: expected a name, got {short_repr(policy, 40)}"
+    scenario = manifest.get("scenario", {})
+    if not isinstance(scenario, dict):
+        return f"scenario: expected a mapping, got {short_repr(scenario, 40)}"
+    name = scenario.get("name")
+    if name is not None and not isinstance(name, str):
+        return f"scenario.name: expected a name, got {short_repr(name, 40)}"
+    dt = scenario.get("dt")
+    if dt is not None and (type(dt) not in (int, float) or not 0 < dt < math.inf):
+        return f"scenario.dt: expected a positive number of seconds, got {short_repr(dt, 40)}"
+    return None
+
+
 def load_run(run_dir: str | Path) -> RunData:
     """Read a run folder's tables and manifest.
 
     Raises ``FileNotFoundError`` when the folder, ``manifest.json`` or a required table is
-    missing, and ``ValueError`` when a non-empty table lacks a declared column (a folder of an
-    older version). ``events`` and ``knowledge`` may be absent or empty.
+    missing, and ``ValueError`` naming the file when the manifest is broken or a field it reads
+    has the wrong type (:func:`manifest_problem`) or a non-empty table lacks a declared column
+    (a folder of an older version). ``events`` and ``knowledge`` may be absent or empty.
     """
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
@@ -153,6 +178,9 @@ def load_run(run_dir: str | Path) -> RunData:
     if not manifest_path.exists():
         raise FileNotFoundError(f"run folder {run_dir} has no manifest.json")
     manifest = read_manifest(run_dir)  # a ValueError naming the file if it is broken
+    why = manifest_problem(manifest)
+    if why is not None:
+        raise ValueError(f"{manifest_path}: {why}")
     tables = {name: _read_table(run_dir, name) for name in REPRODUCIBLE}
     logger.debug(
         "loaded run %s: %s",

@@ -47,7 +47,6 @@ def animate_run(
     ``progress(n)`` is called with the number of frames just written (GIF and MP4 both)."""
     run = load_run(run_dir)
     gif = Path(out) if out is not None else Path(run_dir) / "figures" / "animation.gif"
-    gif.parent.mkdir(parents=True, exist_ok=True)
     steps = np.unique(np.linspace(0, run.last_step, max(2, frames)).round().astype(int))
     fig = Figure(figsize=(8.0, 5.5), layout="constrained")
     FigureCanvasAgg(fig)
@@ -57,6 +56,10 @@ def animate_run(
         ax.clear()
         plot_trajectory_map(run, None, until_step=int(step), ax=ax, legend=False)
         return []
+
+    # the first frame before any file: the movie writer would hide its error behind its own
+    draw(int(steps[0]))
+    gif.parent.mkdir(parents=True, exist_ok=True)
 
     def tick(_frame: int, _total: int) -> None:
         if progress is not None:
