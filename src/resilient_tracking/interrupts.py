@@ -61,6 +61,21 @@ def reraise(err: BaseException) -> None:
         raise KeyboardInterrupt() from err
 
 
+@contextlib.contextmanager
+def deaf_children() -> Iterator[None]:
+    """Ignore SIGINT while worker processes are started (call from the main thread).
+
+    A process inherits an ignored signal, so the workers never see the Ctrl-C a terminal sends
+    to the whole group (one arriving while a worker imports prints a traceback); the parent
+    gets it and stops them. A Ctrl-C in that moment, the time to start the processes, is lost.
+    """
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def ignore_more() -> None:
     """Ignore further SIGINT/SIGTERM: a second Ctrl-C must not break the cleanup."""
     for sig in _SIGNALS:

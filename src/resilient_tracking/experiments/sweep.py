@@ -155,7 +155,9 @@ def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, Epis
     from joblib import Parallel, delayed
 
     parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    yield from parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
+    with interrupts.deaf_children():  # the call starts the workers
+        results = parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
+    yield from results
 
 
 def _dask_results(
