@@ -101,6 +101,27 @@ def test_a_file_not_a_folder_is_refused(tmp_path):
     assert out.read_text() == "x"
 
 
+@pytest.mark.parametrize("run_there_first", [False, True])
+def test_the_current_folder_is_refused_before_the_episode_leaving_nothing(
+    tmp_path, monkeypatch, capsys, run_there_first
+):
+    from resilient_tracking.cli import main
+
+    here = tmp_path / "here"
+    here.mkdir()
+    if run_there_first:
+        write_run(tiny_result(), here)
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    monkeypatch.chdir(here)
+    for out in (".", "..", str(here)):
+        code = main(["run", "sensing-temp", "--steps", "3", "--out", out, "-q", "--overwrite"])
+        err = capsys.readouterr().err
+        assert code == 1 and err.count("\n") == 1 and "is the current folder" in err, err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before
+    with pytest.raises(FileExistsError, match="current folder"):
+        write_run(tiny_result(), Path("."))
+
+
 def test_stale_staging_folders_of_killed_writes_are_removed_and_nothing_else(tmp_path):
     stale = tmp_path / ".run.abcd1234.partial"
     stale.mkdir()

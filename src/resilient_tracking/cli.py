@@ -13,6 +13,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from resilient_tracking import __version__, interrupts
+from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario, ScenarioError
 
@@ -231,7 +232,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     """``rtrack reproduce``: run the paper's experiments (docs/model.md §8) as a resumable sweep
     into ``--out`` and write ``report.md``, printing how many of the claims hold."""
     from resilient_tracking.experiments.catalog import select, tasks
-    from resilient_tracking.experiments.report import write_report
+    from resilient_tracking.experiments.report import files_of_report, write_report
     from resilient_tracking.experiments.sweep import run_sweep
 
     if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
@@ -250,7 +251,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     if _unusable_name("--out", args.out):
         return 1
     out = Path(args.out)
-    if _not_a_folder(out):
+    if _not_a_folder(out) or _holds_foreign_report_files(out, files_of_report(experiments)):
         return 1
     everything = [t for ts in plan.values() for t in ts]
     with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
@@ -277,10 +278,24 @@ def _not_a_folder(out: Path) -> bool:
     return False
 
 
+def _holds_foreign_report_files(out: Path, wanted: ReportFiles) -> bool:
+    """Whether ``--out`` holds a file the report would replace that rtrack did not write
+    (said to the person, before anything runs)."""
+    from resilient_tracking.experiments import report_files
+
+    try:
+        report_files.check(out, wanted)
+    except FileExistsError as err:
+        print(f"error: --out: {err}", file=sys.stderr)
+        return True
+    return False
+
+
 def cmd_compare(args: argparse.Namespace) -> int:
     """``rtrack compare``: run every ``--policies`` entry on every scenario for each seed as a
     resumable sweep and write ``OUT/report.md`` (docs/compare.md)."""
     from resilient_tracking.experiments.comparison import (
+        files_of_report,
         make_study,
         parse_override,
         parse_seeds,
@@ -306,7 +321,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if _unusable_name("--out", args.out):
         return 1
     out = Path(args.out)
-    if _not_a_folder(out):
+    if _not_a_folder(out) or _holds_foreign_report_files(out, files_of_report(study)):
         return 1
     with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
         ran = run_sweep(

@@ -2,9 +2,10 @@
 
 :func:`catching` turns SIGINT into ``KeyboardInterrupt`` and SIGTERM into :class:`Terminated`
 while a command runs, so ``finally`` blocks and ``atexit`` handlers (compile jobs, staging
-folders) run as for any exception. CasADi turns an exception raised inside a solve into a
-failed solve, which the planner handles; :func:`check` raises the signal again at the next safe
-point (a step of the episode, a finished run of a sweep).
+folders) run as for any exception. CasADi turns a ``KeyboardInterrupt`` raised inside a solve
+into a ``RuntimeError``; code that catches a solver's or a builder's exceptions passes each to
+:func:`reraise`, so an interrupt is never taken for a failed solve. :func:`check` raises the
+signal again at the next safe point (a step of the episode, before a sweep stores a run).
 """
 
 from __future__ import annotations
@@ -43,6 +44,36 @@ def check() -> None:
 def received() -> bool:
     """Whether SIGINT or SIGTERM came while :func:`catching` was active."""
     return bool(_RECEIVED)
+
+
+def is_interrupt(err: BaseException) -> bool:
+    """Whether ``err`` stands for Ctrl-C or SIGTERM: one came while :func:`catching` was active,
+    or an extension module turned the ``KeyboardInterrupt`` raised inside it into another
+    exception whose message names it (CasADi: ``RuntimeError: ... KeyboardInterrupt``)."""
+    return received() or isinstance(err, KeyboardInterrupt) or "KeyboardInterrupt" in str(err)
+
+
+def reraise(err: BaseException) -> None:
+    """Raise the interrupt ``err`` stands for (see :func:`is_interrupt`); else return, and the
+    caller handles ``err`` as the failure it is."""
+    if is_interrupt(err):
+        check()
+        raise KeyboardInterrupt() from err
+
+
+@contextlib.contextmanager
+def deaf_children() -> Iterator[None]:
+    """Ignore SIGINT while worker processes are started (call from the main thread).
+
+    A process inherits an ignored signal, so the workers never see the Ctrl-C a terminal sends
+    to the whole group (one arriving while a worker imports prints a traceback); the parent
+    gets it and stops them. A Ctrl-C in that moment, the time to start the processes, is lost.
+    """
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def ignore_more() -> None:

@@ -29,12 +29,14 @@ import yaml
 from scipy import stats
 
 from resilient_tracking import scenarios
+from resilient_tracking.experiments import report_files
 from resilient_tracking.experiments.catalog import Task, Variant
 from resilient_tracking.experiments.generalization import (
     nozone_ratios,
     win_rates_by_kind,
     zone_kind,
 )
+from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.experiments.summary import STRAGGLER_DISTANCE, summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
 from resilient_tracking.runs.folders import write_text_atomic
@@ -456,10 +458,22 @@ def scenario_section(
     return "\n\n".join(parts) + "\n", runs
 
 
+def files_of_report(study: Study) -> ReportFiles:
+    """What :func:`write_compare_report` writes into its folder: the report, its tables and
+    each scenario's figures folder."""
+    return ReportFiles(
+        ("report.md", "runs.csv", "summary.csv", "win_rates.csv"),
+        tuple(f"{label}/figures" for label in study.scenarios),
+    )
+
+
 def write_compare_report(study: Study, tasks: list[Task], out: Path, command: str) -> Path:
     """``out/report.md``, ``out/runs.csv`` (one row per run), ``out/summary.csv`` and, with
-    ``by_zone_kind``, ``out/win_rates.csv``."""
+    ``by_zone_kind``, ``out/win_rates.csv``. ``FileExistsError`` before writing if a file it
+    would replace was not written by rtrack (:mod:`.report_files`)."""
     out = Path(out)
+    written = files_of_report(study)
+    report_files.claim(out, written)
     sections, frames = [], []
     for label in study.scenarios:
         text, runs = scenario_section(
@@ -500,4 +514,6 @@ def write_compare_report(study: Study, tasks: list[Task], out: Path, command: st
         *([kinds] if kinds else []),
         *sections,
     ]
-    return write_text_atomic(out / "report.md", "\n".join(lines))
+    path = write_text_atomic(out / "report.md", "\n".join(lines))
+    report_files.seal(out, written)
+    return path

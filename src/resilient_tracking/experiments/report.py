@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking import __version__
-from resilient_tracking.experiments import generalization
+from resilient_tracking.experiments import generalization, report_files
 from resilient_tracking.experiments.catalog import Experiment, Task, catalog
 from resilient_tracking.experiments.claims import Claim, check
 from resilient_tracking.experiments.report_figures import (
@@ -30,6 +30,7 @@ from resilient_tracking.experiments.report_figures import (
     read_kept,
     up_to_date,
 )
+from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
 from resilient_tracking.runs.folders import write_text_atomic
@@ -184,6 +185,15 @@ def _headline(label: str, claims: list[Claim], short: bool) -> str:
     return line
 
 
+def files_of_report(experiments: list[Experiment]) -> ReportFiles:
+    """What :func:`write_report` writes into its folder: ``report.md``, and per experiment
+    ``summary.csv`` and the figures folder."""
+    return ReportFiles(
+        ("report.md", *(f"{exp.name}/summary.csv" for exp in experiments)),
+        tuple(f"{exp.name}/figures" for exp in experiments),
+    )
+
+
 def write_report(
     experiments: list[Experiment],
     tasks: dict[str, list[Task]],
@@ -192,7 +202,10 @@ def write_report(
     jobs: int = 1,
 ) -> Path:
     """Write ``out/report.md`` (atomically) for the experiments' stored runs; figures whose
-    inputs changed are drawn over ``jobs`` processes."""
+    inputs changed are drawn over ``jobs`` processes. ``FileExistsError`` before writing if a
+    file it would replace was not written by rtrack (:mod:`.report_files`)."""
+    written = files_of_report(experiments)
+    report_files.claim(out, written)
     sections: list[str] = []
     claims: dict[str, list[Claim]] = defaultdict(list)
     short: dict[str, bool] = defaultdict(bool)
@@ -226,5 +239,6 @@ def write_report(
         *sections,
     ]
     path = write_text_atomic(out / "report.md", "\n".join(lines))
+    report_files.seal(out, written)
     log.info("wrote %s", path)
     return path

@@ -3,8 +3,13 @@
 A run lives in ``OUT/runs/<experiment>/<variant>/seed-NNN/``. It is written into a hidden
 staging folder beside its final place and renamed when complete (``runs.records.write_run``),
 so a run folder is either whole or absent, whatever kills the process. A run is skipped when
-its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed); a
-stale one is run again.
+its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed) and
+the record that it ran to completion without an interrupt (``"interrupted": false``); a stale
+one, or one without that record, is run again.
+
+Ctrl-C or SIGTERM stops the sweep (``KeyboardInterrupt``/``interrupts.Terminated``); a run
+during which one came is never stored: the solver ladder raises an interrupt again rather than
+counting it as a failed solve, and the sweep checks for one before storing each run.
 
 Episodes run in worker processes (joblib locally, or Dask workers given a scheduler address);
 only the parent process writes, so workers need no shared file system.
@@ -21,6 +26,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
+from resilient_tracking import interrupts
 from resilient_tracking.experiments.catalog import Task
 from resilient_tracking.runs import folders
 from resilient_tracking.runs.records import EpisodeResult, write_run
@@ -38,39 +44,56 @@ def run_dir(out: Path, task: Task) -> Path:
 
 
 def is_done(out: Path, task: Task) -> bool:
-    """Whether ``task``'s run is stored intact: its manifest carries the task's fingerprint and
-    its own checksum, and every table its recorded checksum. A damaged or edited stored run is
-    not done (a warning names the file); it is run again."""
+    """Whether ``task``'s run is stored intact: its manifest carries the task's fingerprint, the
+    record that the run finished without an interrupt, and its own checksum, and every table its
+    recorded checksum. A damaged or edited stored run is not done (a warning names the file);
+    it is run again, as is one without the record (stored by an older version)."""
     folder = run_dir(out, task)
     if not (folder / "manifest.json").exists():
         return False
     damage = folders.verify(folder)
     if damage is None:
         try:
-            if folders.read_manifest(folder).get("fingerprint") == task.fingerprint:
-                return True
+            manifest = folders.read_manifest(folder)
         except (OSError, ValueError) as err:  # pragma: no cover - verify read it just now
             damage = str(err)
+        else:
+            if manifest.get("fingerprint") != task.fingerprint:
+                return False
+            if manifest.get("interrupted") is False:
+                return True
+            log.info("%s: no record that it finished uninterrupted; running it again", folder)
+            return False
     if damage is not None:
         log.warning("%s; running that stored run again", damage)
     return False
 
 
 def run_task(task: Task) -> tuple[str, EpisodeResult]:
-    """Run one task (in a worker); the result carries the sweep's labels in its manifest."""
+    """Run one task (in a worker); the result carries the sweep's labels in its manifest, and
+    the record that it ran to completion without an interrupt (``interrupted``: an interrupt
+    raises instead of returning)."""
     result = run_episode(task.scenario, policy=task.variant.policy, seed=task.seed)
+    interrupts.check()  # one a library swallowed: this run is not the uninterrupted one
     result.manifest.update(
         experiment=task.experiment,
         variant=task.variant.label,
         tags=dict(task.variant.tags),
         fingerprint=task.fingerprint,
+        interrupted=False,
     )
     return task.run_id, result
 
 
 def store(out: Path, task: Task, result: EpisodeResult) -> Path:
     """Write a finished run; ``write_run`` stages it and renames it into place, replacing a
-    stale run of the same id (beside any file someone else put in its folder, kept)."""
+    stale run of the same id (beside any file someone else put in its folder, kept).
+
+    Raises the interrupt instead if Ctrl-C or SIGTERM came (the run may have met it), and
+    ``ValueError`` for a result without the record that it finished uninterrupted."""
+    interrupts.check()
+    if result.manifest.get("interrupted") is not False:
+        raise ValueError(f"{task.run_id}: not recorded as finished uninterrupted; not stored")
     return write_run(result, run_dir(out, task), overwrite=True)
 
 
@@ -132,7 +155,9 @@ def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, Epis
     from joblib import Parallel, delayed
 
     parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
-    yield from parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
+    with interrupts.deaf_children():  # the call starts the workers
+        results = parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
+    yield from results
 
 
 def _dask_results(
@@ -203,4 +228,5 @@ def _run_sweep_locked(
         store(out, task, result)
         if on_done is not None:
             on_done(task, True)
+    interrupts.check()  # one a library swallowed after the last run: the sweep did not finish
     return todo

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import casadi as ca
 
+from resilient_tracking import interrupts
 from resilient_tracking.planning import library_index
 from resilient_tracking.planning.compile_jobs import CompiledFunctions, start_job
 from resilient_tracking.planning.library_cache import (
@@ -104,6 +105,7 @@ def compile_functions(
         generate_source(functions, names, source)
         digest = hashlib.sha256(source.read_bytes()).hexdigest()[:20]
     except Exception as err:  # code generation is an optimisation: never fail a solve on it
+        interrupts.reraise(err)
         log.warning("code generation for %s failed: %s", label, err)
         shutil.rmtree(workdir, ignore_errors=True)
         return None

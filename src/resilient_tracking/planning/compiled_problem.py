@@ -16,6 +16,7 @@ from typing import Any, Protocol
 import casadi as ca
 import numpy as np
 
+from resilient_tracking import interrupts
 from resilient_tracking.planning import codegen
 from resilient_tracking.planning.compile_jobs import CompiledFunctions
 from resilient_tracking.planning.compiled_call import BufferedCall, quiet_stdout
@@ -113,6 +114,7 @@ class CompiledProblem:
             try:
                 functions = job.load()
             except RuntimeError as err:  # a broken library: stay on the virtual machine
+                interrupts.reraise(err)
                 log.warning("loading %s failed: %s", job.library, err)
                 job.failed, compiled = True, False
         problem = self.symbolic(method)

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from resilient_tracking import interrupts
 from resilient_tracking.planning.cache import LruCache
 from resilient_tracking.planning.layout import ProblemInputs, Structure
 from resilient_tracking.planning.league_problem import LeagueProblem
@@ -180,6 +181,7 @@ class SolverLadder:
         try:
             problem = self.ready_problem(structure)
         except Exception as err:  # building a problem must not crash an episode either
+            interrupts.reraise(err)
             log.warning("building the league problem raised %s: %s", type(err).__name__, err)
             status = f"exception: {type(err).__name__}"
             attempts.append(("build", status))
@@ -197,6 +199,7 @@ class SolverLadder:
                 x = np.asarray(solution["x"])
                 controls = problem.split(x)
             except Exception as err:  # a solver must never crash an episode
+                interrupts.reraise(err)  # an interrupt is not a failed solve
                 log.warning("league solve (%s) raised %s: %s", rung, type(err).__name__, err)
                 status = f"exception: {type(err).__name__}"
                 attempts.append((rung, status))

@@ -17,6 +17,7 @@ from dataclasses import replace
 import numpy as np
 from pydantic import BaseModel
 
+from resilient_tracking import interrupts
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
@@ -134,6 +135,7 @@ class PlanningPolicy(Policy):
         try:
             result = plan()
         except Exception as err:  # the ladder must hold even if the planner breaks
+            interrupts.reraise(err)
             log.warning("league %s: planner raised %s: %s", robots, type(err).__name__, err)
             result = PlanResult(
                 controls=np.zeros((len(robots), 2)),

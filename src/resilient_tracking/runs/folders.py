@@ -8,6 +8,7 @@ Rules (docs/reliability.md §8):
 - a stored run whose tables lack columns of the declaration
   (:data:`~resilient_tracking.runs.schema.TABLES`) was written by an older version: it is
   reported as old by :func:`verify` (and run again by a sweep);
+- a run folder is never the current folder or one above it (it is renamed into place);
 - a folder is replaced whole only when everything in it was written by this tool; anything
   else in it (a user's ``notes.txt``) makes the write refuse, unless ``overwrite`` is given, and
   then the run's files are written beside the user's, which are never deleted
@@ -200,11 +201,28 @@ def foreign_entries(folder: Path) -> list[str]:
     return foreign
 
 
+def holds_working_folder(out: Path) -> bool:
+    """Whether ``out`` is the current folder or one above it (``.``, ``..``)."""
+    try:
+        here, target = Path.cwd().resolve(), out.resolve()
+    except OSError:  # the current folder was removed: it is not ``out``
+        return False
+    return target == here or target in here.parents
+
+
 def check_out_folder(out: Path, overwrite: bool = False) -> list[str]:
     """The foreign entries of ``out`` (see :func:`foreign_entries`), after refusing with
-    ``FileExistsError`` a path that is not a folder, or foreign entries without ``overwrite``."""
+    ``FileExistsError`` a path that is not a folder, the current folder or one above it (a run
+    folder is renamed into place, which the folder a process works in cannot be), or foreign
+    entries without ``overwrite``."""
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"{out}: exists and is not a folder")
+    if holds_working_folder(out):
+        raise FileExistsError(
+            f"{out}: is the current folder or holds it; a run folder is written beside its "
+            "place and renamed into it, which cannot be done to the folder you are in: give a "
+            "new folder, e.g. --out run1"
+        )
     foreign = foreign_entries(out)
     if foreign and not overwrite:
         more = f" and {len(foreign) - 5} more" if len(foreign) > 5 else ""
