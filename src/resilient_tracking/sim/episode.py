@@ -92,9 +92,9 @@ def run_episode(
         check_finite(
             obs.step,
             {
-                "the robots' positions": obs.positions,
-                "the robots' applied controls": applied,
-                "the targets' true states": truth,
+                "a robot's position": obs.positions,
+                "a robot's applied control": applied,
+                "a target's true state": truth,
                 "the team's target estimate": estimate.mean,
                 "the team's target covariance": estimate.cov,
                 "the MSE of the team's estimate": truth_rows.team.last("mse"),
