@@ -58,8 +58,9 @@ MAX_STEP_COUNT = 100_000
 #: Largest episode seed: the largest signed 64-bit integer, so every reader of a manifest holds it
 #: exactly.
 MAX_SEED = 2**63 - 1
-#: Largest ratio of lengths (a jammer strength δ2) and of a Mahalanobis distance.
-MAX_RATIO = 100.0
+#: Largest ratio of lengths (a jammer strength δ2) and of a Mahalanobis distance: at 1e4 a jammer
+#: cuts every link and a region holds the whole workspace.
+MAX_RATIO = 1e4
 
 #: The limits above as the scenario reference lists them: name, value, unit, why.
 LIMITS: tuple[tuple[str, float, str, str], ...] = (
@@ -85,7 +86,7 @@ LIMITS: tuple[tuple[str, float, str, str], ...] = (
     ("MAX_RATE", MAX_RATE, "1/s", "activation and hazard rates: one per 1 ms step"),
     ("MAX_DURATION", MAX_DURATION, "s", "durations: the longest episode (100 000 × 10 s)"),
     ("MAX_STEP_COUNT", MAX_STEP_COUNT, "steps", "step counts: the longest episode"),
-    ("MAX_RATIO", MAX_RATIO, "–", "jammer strength δ2 and Mahalanobis sizes"),
+    ("MAX_RATIO", MAX_RATIO, "–", "jammer strength δ2, Mahalanobis sizes: all links, all space"),
     ("MAX_SEED", MAX_SEED, "–", "seeds: the largest signed 64-bit integer"),
 )
 
