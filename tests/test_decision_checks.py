@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 from helpers import shipped
@@ -86,3 +87,62 @@ def test_rtrack_run_says_which_policy_produced_them(tmp_path):
     )
     assert done.returncode == 0, done.stderr
     assert "12 invalid decision(s) of the policy: policy wild" in done.stderr, done.stderr
+
+
+class RaisingPolicy(Policy):
+    """A plug-in with a bug: raises at its second step."""
+
+    name = "raising"
+    learns_zones = False
+
+    def act(self, belief, obs) -> Decision:
+        if obs.step == 1:
+            raise RuntimeError("plug-in bug")
+        return Decision(controls=np.zeros((obs.n_robots, 2)), modes=["raising"] * obs.n_robots)
+
+
+class WrongShapePolicy(Policy):
+    """A plug-in that returns three numbers per robot."""
+
+    name = "wrong_shape"
+    learns_zones = False
+
+    def act(self, belief, obs) -> Decision:
+        return Decision(controls=np.zeros((obs.n_robots, 3)), modes=["x"] * obs.n_robots)
+
+
+def test_a_wrong_shape_holds_every_robot_with_one_warning(caplog):
+    from resilient_tracking.scenario import parse_scenario
+
+    result = run_episode(parse_scenario(_scenario()), policy=f"{__name__}:WrongShapePolicy")
+    bad = result["events"][result["events"]["event"] == "invalid_decision"]
+    assert len(bad) == 3 * 6 and set(bad["cause"]) == {"shape"}
+    assert (result["robots"][["ux", "uy"]].to_numpy() == 0.0).all()
+    warnings = [r for r in caplog.records if r.levelname == "WARNING"]
+    assert len(warnings) == 1 and "policy wrong_shape" in warnings[0].getMessage()
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_compare_says_which_runs_of_a_plugin_failed_one_line_each(tmp_path, capsys, jobs):
+    from resilient_tracking.cli import main
+
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(_scenario()))
+    out = tmp_path / "cmp"
+    policies = f"{__name__}:RaisingPolicy,{__name__}:WrongShapePolicy"
+    argv = ["compare", str(path), "--policies", policies, "--seeds", "2", "--out", str(out)]
+    code = main([*argv, "--jobs", str(jobs), "-q"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    lines = [line for line in err.splitlines() if line.startswith("error: ")]
+    assert len(lines) == 3, err  # one per failed run, then the count
+    for seed in (1, 2):
+        assert any(
+            f"RaisingPolicy/seed-00{seed}: policy {__name__}:RaisingPolicy: RuntimeError: "
+            "plug-in bug" in line
+            for line in lines
+        ), err
+    assert "2 of 4 run(s) failed" in lines[-1]
+    stored = sorted(p.parent.parent.name for p in out.glob("runs/*/*/seed-*/manifest.json"))
+    assert stored == 2 * [f"{__name__}_WrongShapePolicy"]
+    assert not (out / "report.md").exists()

@@ -35,12 +35,14 @@ from resilient_tracking.cli import main
 from resilient_tracking.scenario import (
     MAX_ROBOTS,
     MAX_ROBOTS_X_TARGETS,
+    MotionSpec,
     Scenario,
     ScenarioError,
     load_scenario,
     parse_scenario,
 )
-from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.sim.episode import NonFiniteError, run_episode
+from resilient_tracking.world.target_motion import TargetMotion
 
 BASES = ("sensing-temp", "combined-temp", "comm-perm")
 TOP_LEVEL = set(Scenario.model_fields) | {"<root>", "<yaml>", "<file>"}
@@ -574,3 +576,44 @@ def test_rerun_never_deletes_what_the_user_added(tmp_path):
 def test_shipped_scenarios_still_validate():
     for path in sorted(SCENARIOS.glob("*.yaml")):
         assert isinstance(load_scenario(path), Scenario)
+
+
+# ---------------------------------------------------------------------------- non-finite numbers
+
+
+class RunawaySpec(MotionSpec):
+    """A plug-in motion whose position becomes NaN at its third step."""
+
+    type: str
+
+
+class RunawayMotion(TargetMotion):
+    Spec = RunawaySpec
+    steps = 0
+
+    def step(self, dt: float, rng: np.random.Generator) -> None:
+        self.steps += 1
+        if self.steps == 3:
+            self.position = self.position * np.nan
+
+
+def _runaway() -> dict[str, Any]:
+    data = copy.deepcopy(BASE_DATA["sensing-temp"])
+    data["steps"] = 6
+    data["targets"][1]["motion"] = {"type": f"{__name__}:RunawayMotion"}
+    return data
+
+
+def test_a_run_meeting_a_number_that_is_not_finite_stops_naming_it_and_the_step():
+    with pytest.raises(NonFiniteError, match=r"^step 3: a target's true state is not finite$"):
+        run_episode(parse_scenario(_runaway()))
+
+
+def test_rtrack_run_meeting_a_number_that_is_not_finite_stores_nothing(tmp_path):
+    path = tmp_path / "runaway.yaml"
+    path.write_text(yaml.safe_dump(_runaway()))
+    out = tmp_path / "out"
+    code, _, err = run_cli(["run", str(path), "--out", str(out), "--no-figures", "-q"])
+    assert code == 2 and "Traceback" not in err
+    assert "NonFiniteError: step 3: a target's true state is not finite" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runaway.yaml"]

@@ -167,8 +167,23 @@ def test_controls_clipped_per_component_to_each_robot_u_max() -> None:
     # Per component (a box), not a norm bound.
     np.testing.assert_allclose(applied, [[0.5, 0.1], [-2.0, 1.5]])
     np.testing.assert_allclose(world.robot_positions, [[0.05, 0.01], [0.8, 1.15]])
-    applied = world.step(np.array([[np.nan, -3.0], [0.0, np.nan]]))
-    np.testing.assert_allclose(applied, [[0.0, -0.5], [0.0, 0.0]])
+
+
+def test_a_robot_with_a_control_that_is_not_finite_holds_position_with_a_warning(caplog) -> None:
+    world = World(scenario([[0.0, 0.0], [1.0, 1.0]], u_max=[0.5, 2.0]), 0)
+    applied = world.step(np.array([[np.nan, -3.0], [np.inf, 1.0]]))
+    np.testing.assert_array_equal(applied, [[0.0, 0.0], [0.0, 0.0]])  # neither clipped nor half
+    np.testing.assert_array_equal(world.robot_positions, [[0.0, 0.0], [1.0, 1.0]])
+    assert "controls of robots [0, 1] are not finite; they hold position" in caplog.text
+    applied = world.step(np.array([[0.1, 0.1], [-np.inf, 0.2]]))
+    np.testing.assert_allclose(applied, [[0.1, 0.1], [0.0, 0.0]])
+
+
+def test_controls_of_another_shape_are_refused() -> None:
+    world = World(scenario([[0.0, 0.0], [1.0, 1.0]]), 0)
+    with pytest.raises(ValueError, match=r"controls have shape \(3, 2\), expected \(2, 2\)"):
+        world.step(np.zeros((3, 2)))
+    assert world.step_index == 0
 
 
 def test_positions_stay_in_workspace() -> None:

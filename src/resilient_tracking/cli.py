@@ -9,6 +9,7 @@ import math
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
@@ -16,6 +17,9 @@ from resilient_tracking import __version__, interrupts
 from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario, ScenarioError
+
+if TYPE_CHECKING:
+    from resilient_tracking.experiments.sweep import SweepError
 
 #: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
 MAX_SEEDS = 1000
@@ -233,7 +237,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     into ``--out`` and write ``report.md``, printing how many of the claims hold."""
     from resilient_tracking.experiments.catalog import select, tasks
     from resilient_tracking.experiments.report import files_of_report, write_report
-    from resilient_tracking.experiments.sweep import run_sweep
+    from resilient_tracking.experiments.sweep import SweepError, run_sweep
 
     if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
         return 1
@@ -254,10 +258,13 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     if _not_a_folder(out) or _holds_foreign_report_files(out, files_of_report(experiments)):
         return 1
     everything = [t for ts in plan.values() for t in ts]
-    with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
-        ran = run_sweep(
-            everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
-        )
+    try:
+        with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
+            ran = run_sweep(
+                everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
+            )
+    except SweepError as err:
+        return _failed_runs(err, out)
     command = " ".join(["rtrack reproduce", *args.argv])
     report = write_report(experiments, plan, out, command, jobs=args.jobs)
     print(
@@ -268,6 +275,18 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         if line.startswith("**") and ("claims hold" in line or "targets hold" in line):
             print(shown(line.replace("**", "")))
     return 0
+
+
+def _failed_runs(err: SweepError, out: Path) -> int:
+    """Say which runs of a sweep failed, one line each (the traceback with -vv); exit 2."""
+    for failure in err.failures:
+        print(f"error: {failure.message}", file=sys.stderr)
+    print(
+        f"error: {err}; the other runs are stored in {out}, no report written "
+        "(rerun with -vv for the tracebacks)",
+        file=sys.stderr,
+    )
+    return 2
 
 
 def _not_a_folder(out: Path) -> bool:
@@ -301,7 +320,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
         parse_seeds,
         write_compare_report,
     )
-    from resilient_tracking.experiments.sweep import run_sweep
+    from resilient_tracking.experiments.sweep import SweepError, run_sweep
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
@@ -323,10 +342,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if _not_a_folder(out) or _holds_foreign_report_files(out, files_of_report(study)):
         return 1
-    with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
-        ran = run_sweep(
-            tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
-        )
+    try:
+        with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
+            ran = run_sweep(
+                tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
+            )
+    except SweepError as err:
+        return _failed_runs(err, out)
     given = list(sys.argv[1:] if args.argv is None else args.argv)
     command = " ".join(["rtrack compare", *given[given.index("compare") + 1 :]])
     report = write_compare_report(study, tasks, out, command)

@@ -24,13 +24,13 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
 from resilient_tracking.scenario import (
-    MAX_COORDINATE,
     HazardSpec,
     MotionSpec,
     PolicySpec,
     Scenario,
     SensorSpec,
 )
+from resilient_tracking.spec import LIMITS
 
 
 @dataclass(frozen=True)
@@ -146,21 +146,43 @@ def default_text(field: FieldInfo) -> str:
     return f"`{_yaml(value)}`"
 
 
-def range_text(field: FieldInfo) -> str:
-    """A field's valid range in words (bounds, list lengths, the coordinate limit); empty when it
-    has none."""
+def _bounds(annotation: Any) -> list[Any]:
+    """The constraints written on a type: ``Annotated`` metadata (``Field(...)`` included), of
+    the non-null member of an optional type too."""
+    if _is_union(annotation):
+        return [m for a in get_args(annotation) if a is not type(None) for m in _bounds(a)]
+    if get_origin(annotation) is not typing.Annotated:
+        return []
+    out: list[Any] = []
+    for m in get_args(annotation)[1:]:
+        out += m.metadata if isinstance(m, FieldInfo) else [m]
+    return out + _bounds(get_args(annotation)[0])
+
+
+def _bound_words(metadata: list[Any]) -> list[str]:
     parts = []
-    if get_origin(_strip(field.annotation)) is tuple:
-        parts.append(f"each number within ±{MAX_COORDINATE:g}")
-    for m in field.metadata:
+    for m in metadata:
         for attr, word in (("gt", ">"), ("ge", "≥"), ("lt", "<"), ("le", "≤")):
             if isinstance(m, getattr(at, attr.capitalize())):
-                parts.append(f"{word} {getattr(m, attr):g}")
+                value = getattr(m, attr)
+                parts.append(f"{word} {value}" if isinstance(value, int) else f"{word} {value:g}")
         if isinstance(m, at.MinLen):
             parts.append(f"at least {m.min_length} item(s)")
         if isinstance(m, at.MaxLen):
             parts.append(f"at most {m.max_length} items")
-    return ", ".join(parts)
+    return parts
+
+
+def range_text(field: FieldInfo) -> str:
+    """A field's valid range in words (bounds, list lengths, the bounds of each number of a
+    point); empty when it has none."""
+    parts = []
+    annotation = _strip(field.annotation)
+    if get_origin(annotation) is tuple:
+        inner = _bound_words(_bounds(get_args(annotation)[0]))
+        if inner:
+            parts.append(f"each number {', '.join(inner)}")
+    return ", ".join(parts + _bound_words(field.metadata + _bounds(field.annotation)))
 
 
 def unit_text(field: FieldInfo) -> str:
@@ -230,6 +252,17 @@ def render() -> str:
         "",
         "A path such as `zones[].hazard` names a mapping inside every item of a list; a mapping "
         "with variants (`kind`, `type`, `model`) is listed once per variant.",
+        "",
+        "Every number has bounds (the *valid* column) that keep a run finite, derived from these "
+        "limits (`resilient_tracking.spec`); `rtrack validate` names a field outside them. A "
+        "circle's speed along its path, `angular_speed` × radius, is held to `MAX_SPEED` too.",
+        "",
+        "| limit | value | unit | bounds |",
+        "|---|---|---|---|",
+        *(
+            f"| `{n}` | {v if isinstance(v, int) else format(v, 'g')} | {u} | {why} |"
+            for n, v, u, why in LIMITS
+        ),
         "",
     ]
     seen: dict[tuple[type[BaseModel], str], str] = {}

@@ -14,7 +14,9 @@ Crazyflie node can wrap it the same way (``docs/team-api.md`` has a complete, te
 Inputs are checked before anything is updated; a wrong shape or length raises ``ValueError``
 naming the field. Lists are accepted wherever arrays are. The policy's decision is checked too
 (:mod:`~resilient_tracking.policies.checks`): a robot whose control is not finite or breaks its
-velocity bounds holds its position instead, with an ``invalid_decision`` event naming the policy.
+velocity bounds (every robot, when the controls are not an ``(M, 2)`` array of numbers) holds its
+position instead, with an ``invalid_decision`` event naming the policy; the first one is logged
+as a warning.
 """
 
 from __future__ import annotations
@@ -100,6 +102,9 @@ class Team:
         self.n_targets = int(initial_estimate.mean.shape[0])
         #: channels of one measurement of the team's sensor (its ``DIM``)
         self.measurement_dim = config.sensor.DIM
+        #: whether an invalid decision was logged as a warning (the first one is; later ones
+        #: are events, logged at debug level)
+        self._warned_invalid = False
 
     @classmethod
     def from_scenario(
@@ -186,13 +191,19 @@ class Team:
                 contained.events.append(
                     Event.invalid_decision(obs.step, i, name, p.kind, p.message)
                 )
-        log.warning(
-            "step %d: policy %s: %s; robots %s hold position",
+        log.log(
+            logging.DEBUG if self._warned_invalid else logging.WARNING,
+            "step %d: policy %s: %s; robots %s hold position%s",
             obs.step,
             name,
             "; ".join(p.message for p in problems[:3]),
             sorted(held),
+            ""
+            if self._warned_invalid
+            else " (every invalid decision is an invalid_decision "
+            "event; later ones are logged at debug level)",
         )
+        self._warned_invalid = True
         return contained
 
 

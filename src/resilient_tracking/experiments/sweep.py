@@ -12,7 +12,9 @@ during which one came is never stored: the solver ladder raises an interrupt aga
 counting it as a failed solve, and the sweep checks for one before storing each run.
 
 Episodes run in worker processes (joblib locally, or Dask workers given a scheduler address);
-only the parent process writes, so workers need no shared file system.
+only the parent process writes, so workers need no shared file system. A run that raises (a
+plug-in's bug, a number that is not finite) is stored nowhere and the sweep goes on; once every
+other run is stored, :class:`SweepError` lists each failed run on one line.
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ import shutil
 import signal
 import threading
 import time
+import traceback
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 from resilient_tracking import interrupts
@@ -69,11 +73,35 @@ def is_done(out: Path, task: Task) -> bool:
     return False
 
 
-def run_task(task: Task) -> tuple[str, EpisodeResult]:
+@dataclass(frozen=True)
+class RunFailure:
+    """A run that raised: ``message`` says what on one line, ``details`` holds the traceback."""
+
+    run_id: str
+    message: str
+    details: str = ""
+
+
+class SweepError(RuntimeError):
+    """Runs of a sweep failed; every other run is stored. ``failures`` has one per failed run."""
+
+    def __init__(self, failures: Sequence[RunFailure], total: int):
+        self.failures = list(failures)
+        super().__init__(f"{len(self.failures)} of {total} run(s) failed; none of them is stored")
+
+
+def run_task(task: Task) -> tuple[str, EpisodeResult | RunFailure]:
     """Run one task (in a worker); the result carries the sweep's labels in its manifest, and
     the record that it ran to completion without an interrupt (``interrupted``: an interrupt
-    raises instead of returning)."""
-    result = run_episode(task.scenario, policy=task.variant.policy, seed=task.seed)
+    raises instead of returning). A run that raises comes back as a :class:`RunFailure` naming
+    the policy, never as the exception, so one failed run stops neither the others nor the
+    worker pool."""
+    try:
+        result = run_episode(task.scenario, policy=task.variant.policy, seed=task.seed)
+    except Exception as err:
+        interrupts.check()  # Ctrl-C swallowed by a library stays an interrupt
+        message = f"{task.run_id}: policy {task.variant.policy}: {type(err).__name__}: {err}"
+        return task.run_id, RunFailure(task.run_id, message, traceback.format_exc())
     interrupts.check()  # one a library swallowed: this run is not the uninterrupted one
     result.manifest.update(
         experiment=task.experiment,
@@ -142,13 +170,15 @@ def _worker_setup(parent: int) -> None:
 _SET_UP = False
 
 
-def run_task_in_worker(task: Task, parent: int) -> tuple[str, EpisodeResult]:
+def run_task_in_worker(task: Task, parent: int) -> tuple[str, EpisodeResult | RunFailure]:
     """:func:`run_task` in a joblib worker of the process ``parent``."""
     _worker_setup(parent)
     return run_task(task)
 
 
-def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, EpisodeResult]]:
+def _joblib_results(
+    todo: Sequence[Task], jobs: int
+) -> Iterator[tuple[str, EpisodeResult | RunFailure]]:
     if jobs == 1:
         yield from map(run_task, todo)
         return
@@ -162,7 +192,7 @@ def _joblib_results(todo: Sequence[Task], jobs: int) -> Iterator[tuple[str, Epis
 
 def _dask_results(
     todo: Sequence[Task], address: str, jobs: int
-) -> Iterator[tuple[str, EpisodeResult]]:
+) -> Iterator[tuple[str, EpisodeResult | RunFailure]]:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as err:  # pragma: no cover - depends on the installed extras
@@ -196,7 +226,8 @@ def run_sweep(
     """Run every task not already stored under ``out``; returns the tasks that ran.
 
     ``on_done(task, ran)`` is called once per task: at once for skipped ones (``ran=False``),
-    then as each run is stored.
+    then as each run is stored or fails. Raises :class:`SweepError` after the last run when
+    any run failed.
     """
     out = Path(out)
     with folders.folder_lock(out):
@@ -223,10 +254,17 @@ def _run_sweep_locked(
             on_done(t, False)
     log.info("%d run(s) to do, %d already stored", len(todo), len(tasks) - len(todo))
     results = _dask_results(todo, dask, jobs) if dask else _joblib_results(todo, jobs)
+    failures: list[RunFailure] = []
     for run_id, result in results:
         task = by_id[run_id]
-        store(out, task, result)
+        if isinstance(result, RunFailure):
+            log.debug("%s failed:\n%s", run_id, result.details)
+            failures.append(result)
+        else:
+            store(out, task, result)
         if on_done is not None:
             on_done(task, True)
     interrupts.check()  # one a library swallowed after the last run: the sweep did not finish
+    if failures:
+        raise SweepError(failures, len(todo))
     return todo

@@ -22,13 +22,13 @@ from resilient_tracking.models.sensor import (
     MIN_RANGE,
     PLAN_EPS,
     FloatArray,
+    MaxRange,
     MeasurementModel,
     SensorChannel,
     SensorSpec,
     register_sensor,
     wrap_angle,
 )
-from resilient_tracking.spec import PositiveFloat
 
 
 class BearingOnlySpec(SensorSpec):
@@ -37,7 +37,7 @@ class BearingOnlySpec(SensorSpec):
 
     type: Literal["bearing_only"] = Field(description="Selects this sensor.")
     bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
-    max_range: PositiveFloat | None = Field(
+    max_range: MaxRange | None = Field(
         None,
         description="Targets farther than this are not measured; null: no limit.",
         json_schema_extra={"unit": "m"},

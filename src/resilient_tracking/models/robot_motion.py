@@ -17,11 +17,12 @@ def clip_velocities(
     """Velocity bounds per component, then keep the next position inside the workspace.
 
     A pure function of the robots' own positions, so a robot-side node can apply the same
-    clipping to its commands as the simulator does.
+    clipping to its commands as the simulator does. A robot whose command is not finite (NaN or
+    infinite in either component) holds its position: its velocity is 0.
     """
     bound = u_max[:, None]
-    nan = np.isnan(controls)
-    u = np.where(nan, 0.0, controls) if nan.any() else controls  # ±inf: clipped below
+    finite = np.isfinite(controls).all(axis=-1, keepdims=True)
+    u = controls if finite.all() else np.where(finite, controls, 0.0)
     u = np.minimum(np.maximum(u, -bound), bound)
     nxt = np.minimum(np.maximum(positions + u * dt, lower), upper)
     return (nxt - positions) / dt

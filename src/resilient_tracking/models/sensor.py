@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import casadi as ca
 import numpy as np
@@ -30,9 +30,17 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from resilient_tracking.registry import Registry
-from resilient_tracking.spec import PositiveFloat, Strict
+from resilient_tracking.spec import (
+    MAX_DECAY,
+    MAX_INFORMATION,
+    MAX_LENGTH,
+    MIN_INFORMATION,
+    Strict,
+)
 
 FloatArray = NDArray[np.float64]
+#: A sensor's maximum range (m): positive, at most :data:`~resilient_tracking.spec.MAX_LENGTH`.
+MaxRange = Annotated[float, Field(gt=0, le=MAX_LENGTH)]
 
 #: Distances below this are treated as this (the bearing is undefined at zero range).
 MIN_RANGE = 1e-3
@@ -64,14 +72,17 @@ class SensorSpec(Strict):
 class SensorChannel(Strict):
     """One channel: inverse variance ``peak · exp(−shape · d)``."""
 
-    peak: PositiveFloat = Field(
+    peak: float = Field(
         15.0,
+        ge=MIN_INFORMATION,
+        le=MAX_INFORMATION,
         description="Inverse variance at distance 0 (m⁻² for range, rad⁻² for bearing).",
         json_schema_extra={"unit": "1/variance"},
     )
     shape: float = Field(
         0.2,
         ge=0,
+        le=MAX_DECAY,
         description="Decay rate of the information with distance; 0: independent of distance.",
         json_schema_extra={"unit": "1/m"},
     )
@@ -86,7 +97,7 @@ class RangeBearingSpec(SensorSpec):
     )
     range: SensorChannel = Field(SensorChannel(), description="Noise of the range measurement.")
     bearing: SensorChannel = Field(SensorChannel(), description="Noise of the bearing measurement.")
-    max_range: PositiveFloat | None = Field(
+    max_range: MaxRange | None = Field(
         None,
         description="Targets farther than this are not measured; null: no limit.",
         json_schema_extra={"unit": "m"},

@@ -7,23 +7,31 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from resilient_tracking.spec import PositiveFloat, Strict
+from resilient_tracking.spec import (
+    MAX_POSITION_STD,
+    MAX_RATIO,
+    MAX_STEP_COUNT,
+    Length,
+    PositiveLength,
+    PositiveWeight,
+    Strict,
+    Weight,
+)
 
 
 class WeightSet(Strict):
     """One extreme of the adaptive weights (paper eq. 10): ``w1..w4`` and the clearance ``w5``."""
 
-    track: float = Field(ge=0, description="w1: weight on the tracking term Σ_j tr P⁺_j.")
-    effort: PositiveFloat = Field(..., description="w2: weight on the control effort Σ_i ‖u_i‖².")
-    sensing_slack: float = Field(
-        ge=0, description="w3: penalty on the slacks of the sensing-zone chance constraints."
+    track: Weight = Field(description="w1: weight on the tracking term Σ_j tr P⁺_j.")
+    effort: PositiveWeight = Field(..., description="w2: weight on the control effort Σ_i ‖u_i‖².")
+    sensing_slack: Weight = Field(
+        description="w3: penalty on the slacks of the sensing-zone chance constraints."
     )
-    comm_slack: float = Field(
-        ge=0, description="w4: penalty on the slacks of the comm-zone chance constraints."
+    comm_slack: Weight = Field(
+        description="w4: penalty on the slacks of the comm-zone chance constraints."
     )
-    clearance: float = Field(
+    clearance: Length = Field(
         0.0,
-        ge=0,
         description="w5: clearance added to a sensing zone radius, r_safe = r + w5.",
         json_schema_extra={"unit": "m"},
     )
@@ -48,6 +56,7 @@ class CircleFitParams(Strict):
     min_samples: int = Field(
         20,
         ge=5,
+        le=10_000,
         description="Fewest positions before a fit is accepted.",
         json_schema_extra={"unit": "steps"},
     )
@@ -58,21 +67,21 @@ class CircleFitParams(Strict):
         description="Smallest arc of the circle the positions must cover.",
         json_schema_extra={"unit": "rad"},
     )
-    max_residual: float = Field(
+    max_residual: PositiveLength = Field(
         0.08,
-        gt=0,
         description="Largest RMS radial residual of an accepted fit.",
         json_schema_extra={"unit": "m"},
     )
-    min_radius: PositiveFloat = Field(
+    min_radius: PositiveLength = Field(
         0.2, description="Smallest plausible circle radius.", json_schema_extra={"unit": "m"}
     )
-    max_radius: PositiveFloat = Field(
+    max_radius: PositiveLength = Field(
         5.0, description="Largest plausible circle radius.", json_schema_extra={"unit": "m"}
     )
     silent_steps: int = Field(
         8,
         ge=1,
+        le=MAX_STEP_COUNT,
         description="Steps without any working link before a teammate is watched.",
         json_schema_extra={"unit": "steps"},
     )
@@ -98,6 +107,7 @@ class FailureAwareParams(Strict):
     cooldown_steps: int = Field(
         10,
         ge=0,
+        le=MAX_STEP_COUNT,
         description="Length of the cool-down after a temporary failure.",
         json_schema_extra={"unit": "steps"},
     )
@@ -115,9 +125,8 @@ class FailureAwareParams(Strict):
         lt=0.5,
         description="Risk level ε2 of the comm-zone chance constraints and of the evasion circle.",
     )
-    comm_clearance: float = Field(
+    comm_clearance: Length = Field(
         0.5,
-        ge=0,
         description="Clearance added around a comm zone an isolated robot escapes.",
         json_schema_extra={"unit": "m"},
     )
@@ -128,9 +137,8 @@ class FailureAwareParams(Strict):
         description="Speed of circular evasion as a fraction of u_max.",
         json_schema_extra={"unit": "fraction"},
     )
-    circle_margin: float = Field(
+    circle_margin: Length = Field(
         0.3,
-        ge=0,
         description="Margin added to the evasion circle radius.",
         json_schema_extra={"unit": "m"},
     )
@@ -169,8 +177,10 @@ class FailureAwareParams(Strict):
         ),
         json_schema_extra={"unit": "steps"},
     )
-    inferred_delta2: PositiveFloat = Field(
+    inferred_delta2: float = Field(
         0.3,
+        gt=0,
+        le=MAX_RATIO,
         description=(
             "Jammer strength assumed for a comm zone inferred from a circle (its δ2 is not seen)."
         ),
@@ -179,6 +189,7 @@ class FailureAwareParams(Strict):
     silence_std: float = Field(
         0.3,
         ge=0,
+        le=MAX_POSITION_STD,
         description=(
             "Spread of the provisional comm zone put where a teammate fell silent, until a circle"
             " fit replaces it; 0 turns it off."

@@ -39,19 +39,26 @@ from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.planning.sog_problem import SogInputs, SogPlanner, zone_rows
 from resilient_tracking.policies.base import Decision, register_policy
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
-from resilient_tracking.spec import PositiveFloat, Strict
+from resilient_tracking.spec import (
+    MAX_DURATION,
+    MAX_RATE,
+    MAX_VARIANCE,
+    MIN_VARIANCE,
+    PositiveWeight,
+    Strict,
+)
 from resilient_tracking.team_config import TeamConfig
 
 
 class SogSlackWeights(Strict):
     """Penalties on the SOG program's slacks at one extreme of the sensor abundance."""
 
-    track: PositiveFloat = Field(
+    track: PositiveWeight = Field(
         ...,
         description="Penalty on δ1j, the excess of tr P⁺_j over ρ1.",
         json_schema_extra={"unit": "1/m²"},
     )
-    risk: PositiveFloat = Field(
+    risk: PositiveWeight = Field(
         ..., description="Penalty on δ2i, the excess of the failure likelihood φ_i over ρ2."
     )
 
@@ -60,8 +67,10 @@ class SogParams(Strict):
     """Risk-aware SOG baseline after Mayya et al. (RA-L 2022), rebuilt from its published
     description (docs/model.md §7); see ``policies/sog.py``."""
 
-    rho1: PositiveFloat = Field(
+    rho1: float = Field(
         0.01,
+        ge=MIN_VARIANCE,
+        le=MAX_VARIANCE,
         description="Tracking requirement tr P⁺_j ≤ ρ1 per target (position block).",
         json_schema_extra={"unit": "m²"},
     )
@@ -71,7 +80,7 @@ class SogParams(Strict):
         lt=1,
         description="Acceptable risk φ_i ≤ ρ2: risky 0.6, regular 0.3, conservative 0.2.",
     )
-    effort: PositiveFloat = Field(0.05, description="Weight on the control effort Σ_i ‖u_i‖².")
+    effort: PositiveWeight = Field(0.05, description="Weight on the control effort Σ_i ‖u_i‖².")
     abundant: SogSlackWeights = Field(
         SogSlackWeights(track=100.0, risk=2.0),
         description="Slack penalties with every sensor working (aggressive).",
@@ -82,15 +91,19 @@ class SogParams(Strict):
             "Slack penalties with no sensor left (risk-averse); geometric interpolation in between."
         ),
     )
-    hazard_rate: PositiveFloat = Field(
+    hazard_rate: float = Field(
         1.0,
+        gt=0,
+        le=MAX_RATE,
         description=(
             "Attack rate κ f_act the team assumes for a known zone (clues do not carry it)."
         ),
         json_schema_extra={"unit": "1/s"},
     )
-    risk_window: PositiveFloat = Field(
+    risk_window: float = Field(
         10.0,
+        gt=0,
+        le=MAX_DURATION,
         description=(
             "φ is the chance of an attack when staying at x this long, about the time a target of"
             " the shipped scenarios takes to cross a zone."

@@ -14,17 +14,19 @@ from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, register_policy
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
-from resilient_tracking.spec import PositiveFloat, Strict
+from resilient_tracking.spec import PositiveWeight, Strict
 from resilient_tracking.team_config import TeamConfig
 
 
 class VanillaParams(Strict):
     """Fixed weights (docs/model.md §7.1): tracking trace and control effort."""
 
-    w_track: PositiveFloat = Field(
+    w_track: PositiveWeight = Field(
         50.0, description="Weight w1 on the predicted tracking uncertainty Σ_j tr P⁺_j."
     )
-    w_effort: PositiveFloat = Field(0.05, description="Weight w2 on the control effort Σ_i ‖u_i‖².")
+    w_effort: PositiveWeight = Field(
+        0.05, description="Weight w2 on the control effort Σ_i ‖u_i‖²."
+    )
 
 
 @register_policy("vanilla")

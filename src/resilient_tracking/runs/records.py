@@ -78,6 +78,10 @@ class ColumnTable:
             column[row] = values[name]
         self._rows = row + 1
 
+    def last(self, name: str) -> Any:
+        """The value of column ``name`` in the last row appended."""
+        return self._columns[name][self._rows - 1]
+
     def _grow(self, rows: int) -> None:
         """Double the columns (at least to ``rows``), keeping the rows written so far."""
         for name, column in self._columns.items():

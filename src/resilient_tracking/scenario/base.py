@@ -10,6 +10,8 @@ from pydantic import BaseModel, BeforeValidator
 
 from resilient_tracking.spec import (
     MAX_COORDINATE,
+    MAX_VARIANCE,
+    MIN_VARIANCE,
     Coordinate,
     Matrix2,
     Number,
@@ -42,14 +44,9 @@ __all__ = [
     "plugin_spec",
 ]
 
-#: Largest magnitude (m²) of a covariance entry, and the smallest eigenvalue ratio λmin/λmax: a
-#: flatter Σ is numerically singular for the chance constraints and the Mahalanobis tests.
-MAX_VARIANCE = 1e12
+#: Smallest eigenvalue ratio λmin/λmax of a covariance: a flatter Σ is numerically singular
+#: for the chance constraints and the Mahalanobis tests.
 MIN_COVARIANCE_RATIO = 1e-9
-#: Smallest eigenvalue (m²) of a covariance: below it the Gaussian density's normaliser
-#: 1/(2π√det Σ) overflows (det Σ underflows to 0 near 1e-300), so the hazard and the risk maps
-#: would be NaN. 1e-6 m² is a 1 mm standard deviation, far below any sensor's.
-MIN_VARIANCE = 1e-6
 #: Upper bounds on sizes: the league NLP grows with robots × targets × zones, so a team beyond
 #: these is refused up front rather than left to exhaust memory while the problem is built.
 MAX_ROBOTS = 64

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Annotated, Any
 
 from pydantic import (
     Field,
@@ -21,7 +21,6 @@ from resilient_tracking.scenario.base import (
     MAX_TARGETS,
     MAX_ZONES,
     MIN_DT,
-    PositiveFloat,
     Strict,
 )
 from resilient_tracking.scenario.errors import ScenarioError, field_problems
@@ -36,6 +35,7 @@ from resilient_tracking.scenario.world_specs import (
     Workspace,
 )
 from resilient_tracking.scenario.zones import Zone
+from resilient_tracking.spec import MAX_LENGTH, MAX_SEED, MAX_SPEED
 
 # ---------------------------------------------------------------------------- scenario
 
@@ -48,6 +48,7 @@ class Scenario(Strict):
     seed: int = Field(
         0,
         ge=0,
+        le=MAX_SEED,
         description="Episode seed; every random draw comes from its own stream derived from it.",
     )
     #: at most 10 s: beyond it one step moves targets out of any sensor's reach
@@ -77,7 +78,7 @@ class Scenario(Strict):
         max_length=MAX_ZONES,
         description="Danger zones, initially unknown to the robots, selected by kind.",
     )
-    comm_range: PositiveFloat | None = Field(
+    comm_range: Annotated[float, Field(gt=0, le=MAX_LENGTH)] | None = Field(
         None,
         description="Robots link only within this distance; null: unlimited.",
         json_schema_extra={"unit": "m"},
@@ -113,10 +114,19 @@ class Scenario(Strict):
             if not ws.contains(target.start):
                 out.append(f"targets.{j}.start: outside the workspace (got {list(target.start)})")
             motion = target.motion
-            if isinstance(motion, Circle) and math.dist(motion.center, target.start) == 0:
+            if not isinstance(motion, Circle):
+                continue
+            radius = math.dist(motion.center, target.start)
+            if radius == 0:
                 out.append(
                     f"targets.{j}.motion.center: equals the start, radius would be 0 "
                     f"(got {list(motion.center)})"
+                )
+            elif abs(motion.angular_speed) * radius > MAX_SPEED:
+                out.append(
+                    f"targets.{j}.motion.angular_speed: the speed along the circle of radius "
+                    f"{radius:.6g} m would be {abs(motion.angular_speed) * radius:.3g} m/s, above "
+                    f"{MAX_SPEED:g} m/s (got {motion.angular_speed})"
                 )
         return out
 

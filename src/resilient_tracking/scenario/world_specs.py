@@ -12,7 +12,14 @@ from pydantic import (
 )
 
 from resilient_tracking.models.sensor import SensorSpec
-from resilient_tracking.scenario.base import PositiveFloat, Strict, Vec2, plugin_spec
+from resilient_tracking.scenario.base import Coordinate, Strict, Vec2, plugin_spec
+from resilient_tracking.spec import (
+    MAX_ACCEL,
+    MAX_POSITION_STD,
+    MAX_SPEED,
+    MAX_TURN_RATE,
+    Velocity2,
+)
 
 # ---------------------------------------------------------------------------- geometry
 
@@ -20,14 +27,16 @@ from resilient_tracking.scenario.base import PositiveFloat, Strict, Vec2, plugin
 class Workspace(Strict):
     """Axis-aligned box the robots stay in (metres)."""
 
-    xmin: float = Field(-5.0, description="Left edge of the box.", json_schema_extra={"unit": "m"})
-    xmax: float = Field(
+    xmin: Coordinate = Field(
+        -5.0, description="Left edge of the box.", json_schema_extra={"unit": "m"}
+    )
+    xmax: Coordinate = Field(
         5.0, description="Right edge; must exceed xmin.", json_schema_extra={"unit": "m"}
     )
-    ymin: float = Field(
+    ymin: Coordinate = Field(
         -5.0, description="Bottom edge of the box.", json_schema_extra={"unit": "m"}
     )
-    ymax: float = Field(
+    ymax: Coordinate = Field(
         5.0, description="Top edge; must exceed ymin.", json_schema_extra={"unit": "m"}
     )
 
@@ -55,8 +64,10 @@ class RobotSpec(Strict):
     start: Vec2 = Field(
         ..., description="Initial position, inside the workspace.", json_schema_extra={"unit": "m"}
     )
-    u_max: PositiveFloat = Field(
+    u_max: float = Field(
         1.0,
+        gt=0,
+        le=MAX_SPEED,
         description="Bound on each velocity component: |u_x|, |u_y| ≤ u_max.",
         json_schema_extra={"unit": "m/s"},
     )
@@ -73,7 +84,7 @@ class ConstantVelocity(MotionSpec):
     """Straight line at a constant velocity."""
 
     type: Literal["constant_velocity"] = Field(description="Selects this motion.")
-    velocity: Vec2 = Field(
+    velocity: Velocity2 = Field(
         ..., description="Constant velocity [v_x, v_y].", json_schema_extra={"unit": "m/s"}
     )
 
@@ -87,8 +98,12 @@ class Waypoints(MotionSpec):
         description="Visited in order along straight segments, starting from start.",
         json_schema_extra={"unit": "m"},
     )
-    speed: PositiveFloat = Field(
-        ..., description="Constant speed along the path.", json_schema_extra={"unit": "m/s"}
+    speed: float = Field(
+        ...,
+        gt=0,
+        le=MAX_SPEED,
+        description="Constant speed along the path.",
+        json_schema_extra={"unit": "m/s"},
     )
     loop: bool = Field(
         False,
@@ -112,7 +127,12 @@ class Circle(MotionSpec):
     )
     angular_speed: float = Field(
         ...,
-        description="Positive: counter-clockwise, negative: clockwise, 0: still.",
+        ge=-MAX_TURN_RATE,
+        le=MAX_TURN_RATE,
+        description=(
+            "Positive: counter-clockwise, negative: clockwise, 0: still; the speed along the "
+            f"circle, angular_speed × radius, must not exceed {MAX_SPEED:g} m/s."
+        ),
         json_schema_extra={"unit": "rad/s"},
     )
 
@@ -121,12 +141,13 @@ class NoisyConstantVelocity(MotionSpec):
     """Nearly-constant-velocity truth: white acceleration noise of ``accel_std`` per axis."""
 
     type: Literal["ncv"] = Field(description="Selects this motion.")
-    velocity: Vec2 = Field(
+    velocity: Velocity2 = Field(
         (0.0, 0.0), description="Initial velocity.", json_schema_extra={"unit": "m/s"}
     )
     accel_std: float = Field(
         0.1,
         ge=0,
+        le=MAX_ACCEL,
         description=(
             "Standard deviation of the white acceleration noise per axis; 0 gives constant "
             "velocity."
@@ -170,16 +191,23 @@ class EstimatorSpec(Strict):
     accel_std: float = Field(
         0.2,
         gt=0,
+        le=MAX_ACCEL,
         description="White-acceleration noise of the EKF's process model, per axis.",
         json_schema_extra={"unit": "m/s²"},
     )
-    initial_position_std: PositiveFloat = Field(
+    initial_position_std: float = Field(
         0.5,
+        gt=0,
+        le=MAX_POSITION_STD,
         description=(
             "Initial position uncertainty per axis (the initial estimate is drawn with it)."
         ),
         json_schema_extra={"unit": "m"},
     )
-    initial_velocity_std: PositiveFloat = Field(
-        0.3, description="Initial velocity uncertainty per axis.", json_schema_extra={"unit": "m/s"}
+    initial_velocity_std: float = Field(
+        0.3,
+        gt=0,
+        le=MAX_SPEED,
+        description="Initial velocity uncertainty per axis.",
+        json_schema_extra={"unit": "m/s"},
     )

@@ -17,11 +17,11 @@ from resilient_tracking.scenario.base import (
     MIN_COVARIANCE_RATIO,
     MIN_VARIANCE,
     Matrix2,
-    PositiveFloat,
     Strict,
     Vec2,
     plugin_spec,
 )
+from resilient_tracking.spec import MAX_INTENSITY, MAX_LENGTH, MAX_RATE, MAX_RATIO
 
 # ---------------------------------------------------------------------------- danger zones
 
@@ -39,11 +39,17 @@ class GaussianHazard(HazardSpec):
     """``P(attack) = 1 − exp(−κ f_act dt pdf_N(μ,Σ)(x))`` per step (docs/model.md §2)."""
 
     model: Literal["gaussian"] = Field(description="Selects this hazard model.")
-    f_act: PositiveFloat = Field(
-        1.0, description="Activation frequency of the zone.", json_schema_extra={"unit": "Hz"}
-    )
-    kappa: PositiveFloat = Field(
+    f_act: float = Field(
         1.0,
+        gt=0,
+        le=MAX_RATE,
+        description="Activation frequency of the zone.",
+        json_schema_extra={"unit": "Hz"},
+    )
+    kappa: float = Field(
+        1.0,
+        gt=0,
+        le=MAX_INTENSITY,
         description="Intensity κ, multiplying a density in m⁻².",
         json_schema_extra={"unit": "m²"},
     )
@@ -53,8 +59,12 @@ class DiskHazard(HazardSpec):
     """Hit with probability ``p_hit`` at each activation tick while inside the true disk."""
 
     model: Literal["disk"] = Field(description="Selects this hazard model.")
-    f_act: PositiveFloat = Field(
-        1.0, description="Activation frequency of the zone.", json_schema_extra={"unit": "Hz"}
+    f_act: float = Field(
+        1.0,
+        gt=0,
+        le=MAX_RATE,
+        description="Activation frequency of the zone.",
+        json_schema_extra={"unit": "Hz"},
     )
     p_hit: float = Field(
         0.5,
@@ -106,8 +116,9 @@ class ZoneBase(Strict):
     sigma: Matrix2 = Field(
         ...,
         description=(
-            "Prior covariance Σ of the zone center: symmetric, positive definite, not nearly "
-            "singular."
+            "Prior covariance Σ of the zone center: symmetric, positive definite, entries within "
+            f"±{MAX_VARIANCE:g} m², smallest eigenvalue at least {MIN_VARIANCE:g} m² and at "
+            f"least {MIN_COVARIANCE_RATIO:g} times the largest."
         ),
         json_schema_extra={"unit": "m²"},
     )
@@ -122,8 +133,10 @@ class ZoneBase(Strict):
         GaussianHazard(model="gaussian"),
         description="How attacks are drawn, selected by its model.",
     )
-    m_recover: PositiveFloat = Field(
+    m_recover: float = Field(
         2.0,
+        gt=0,
+        le=MAX_RATIO,
         description=(
             "Size of the influence region (x − μ)ᵀ Σ⁻¹ (x − μ) ≤ m_recover², out of which a "
             "temporary failure ends."
@@ -146,8 +159,10 @@ class SensingZone(ZoneBase):
     disables the robot's sensor."""
 
     kind: Literal["sensing"] = Field(description="An attack disables the robot's sensor.")
-    radius: PositiveFloat = Field(
+    radius: float = Field(
         ...,
+        gt=0,
+        le=MAX_LENGTH,
         description="Radius r of the zone's disk around its true center.",
         json_schema_extra={"unit": "m"},
     )
@@ -165,8 +180,10 @@ class CommZone(ZoneBase):
     kind: Literal["comm"] = Field(
         description="An attack disables the robot's radio; the zone also jams links."
     )
-    delta2: PositiveFloat = Field(
+    delta2: float = Field(
         ...,
+        gt=0,
+        le=MAX_RATIO,
         description=(
             "Jammer strength δ2: a link is cut when a robot is within δ2 times the link length of"
             " the true center."

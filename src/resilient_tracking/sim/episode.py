@@ -4,7 +4,9 @@ Per step ``k``: the world is observed, the team updates its belief and plans, th
 rows are recorded (the team's by a :class:`~resilient_tracking.runs.team_recorder.TeamRecorder`,
 truth at ``k`` against the team's estimate at ``k`` by a
 :class:`~resilient_tracking.runs.truth_recorder.TruthRecorder`), then the world advances with
-the commands.
+the commands. Each step's numbers are checked to be finite (:func:`check_finite`): a run that
+meets NaN or infinity stops with :class:`NonFiniteError` naming the quantity and the step, so
+no table ever holds one.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -30,6 +33,21 @@ from resilient_tracking.world.world import make_zones
 from resilient_tracking.world.zones import TrueZone
 
 log = logging.getLogger(__name__)
+
+
+class NonFiniteError(ArithmeticError):
+    """An episode met a number that is not finite; the message names the quantity and the step.
+
+    The bounds of the scenario schema keep every run finite; this stops one that is not anyway
+    (a plug-in's motion or sensor, a numerical bug) before a table holds NaN or infinity."""
+
+
+def check_finite(step: int, quantities: dict[str, Any]) -> None:
+    """Raise :class:`NonFiniteError` naming the first of ``quantities`` (name: number or
+    array) that holds a number that is not finite."""
+    for name, value in quantities.items():
+        if not np.isfinite(value).all():
+            raise NonFiniteError(f"step {step}: {name} is not finite")
 
 
 def initial_estimate(scenario: Scenario, world: World, seed: int) -> TargetEstimate:
@@ -69,7 +87,19 @@ def run_episode(
         out = team.step(obs)
         applied = world.step(out.controls)
         team_rows.step(obs, out, applied, team.belief)
-        truth_rows.step(obs.step, truth[:, :2], team.belief.team_estimate().mean[:, :2])
+        estimate = team.belief.team_estimate()
+        truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
+        check_finite(
+            obs.step,
+            {
+                "a robot's position": obs.positions,
+                "a robot's applied control": applied,
+                "a target's true state": truth,
+                "the team's target estimate": estimate.mean,
+                "the team's target covariance": estimate.cov,
+                "the MSE of the team's estimate": truth_rows.team.last("mse"),
+            },
+        )
         if progress is not None:
             progress(1)
     wall = time.perf_counter() - started

@@ -8,6 +8,7 @@ know: measurements, their own failures, attack clues and link states.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import cast
 
@@ -21,6 +22,8 @@ from resilient_tracking.scenario import Scenario
 from resilient_tracking.world.links import jammed_by, link_matrix
 from resilient_tracking.world.targets import TargetTruth
 from resilient_tracking.world.zones import TrueZone
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -136,8 +139,22 @@ class World:
         )
 
     def step(self, controls: np.ndarray) -> np.ndarray:
-        """Advance one step with velocity ``controls`` (M, 2); returns the controls applied."""
-        u = self.clip_controls(np.asarray(controls, dtype=float))
+        """Advance one step with velocity ``controls`` (M, 2); returns the controls applied.
+
+        Controls of another shape are refused (``ValueError``); a robot whose control is not
+        finite holds its position, with a warning (the team has already made such a control an
+        ``invalid_decision`` event, so in an episode this never happens)."""
+        u = np.asarray(controls, dtype=float)
+        if u.shape != (self.n_robots, 2):
+            raise ValueError(f"controls have shape {u.shape}, expected ({self.n_robots}, 2)")
+        bad = ~np.isfinite(u).all(axis=1)
+        if bad.any():
+            log.warning(
+                "step %d: the controls of robots %s are not finite; they hold position",
+                self.step_index,
+                np.flatnonzero(bad).tolist(),
+            )
+        u = self.clip_controls(u)
         self.advance(u)
         return u
 
