@@ -160,20 +160,21 @@ class FailureAwareParams(Strict):
             "Beyond the paper: league robots keep clear of the hazard of every comm zone they"
             " know and do not know to be temporary (an eq. 7c disc of radius comm_clearance +"
             " w5, besides eq. 7d, at risk level ε1); the risk level of the sensing-zone"
-            " constraints shrinks with the share of robots still sensing (ε1·s/M); each zone's"
-            " risk level shrinks with the team's exposure to it (exposure_horizon); a robot"
-            " circling its attacker (Alg. 4) turns back at a known sensing zone's keep-out disc."
-            " false: the paper's constraint set (docs/paper-map.md)."
+            " constraints shrinks with the share of robots still sensing (ε1·s/M); with"
+            " exposure_horizon, each zone's risk level shrinks with the team's exposure to it; a"
+            " robot circling its attacker (Alg. 4) turns back at a known sensing zone's keep-out"
+            " disc. false: the paper's constraint set (docs/paper-map.md)."
         ),
     )
     exposure_horizon: int = Field(
-        20,
+        0,
         ge=0,
         le=1_000_000,
         description=(
             "With hazard_guard: robot-steps near a known zone's keep-out disc after which the risk"
             " level of its constraint halves, and halves again each time that exposure doubles"
-            " (risk accumulated over time); 0 turns it off."
+            " (risk accumulated over time); 0, the default, turns it off (docs/calibration.md §7"
+            " measures both)."
         ),
         json_schema_extra={"unit": "steps"},
     )
