@@ -117,6 +117,9 @@ def test_the_current_folder_is_refused_before_the_episode_leaving_nothing(
         code = main(["run", "sensing-temp", "--steps", "3", "--out", out, "-q", "--overwrite"])
         err = capsys.readouterr().err
         assert code == 1 and err.count("\n") == 1 and "is the current folder" in err, err
+        code = main(["node", "sensing-temp", "--out", out])  # refused before the node runs
+        err = capsys.readouterr().err
+        assert code == 1 and err.count("\n") == 1 and err.startswith("error: --out:"), err
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
     with pytest.raises(FileExistsError, match="current folder"):
         write_run(tiny_result(), Path("."))

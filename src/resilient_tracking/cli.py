@@ -15,7 +15,7 @@ from tqdm import tqdm
 
 from resilient_tracking import __version__, interrupts
 from resilient_tracking.experiments.report_files import ReportFiles
-from resilient_tracking.runs.folders import folder_name
+from resilient_tracking.runs.folders import folder_name, holds_working_folder
 from resilient_tracking.scenario import Scenario, ScenarioError
 
 if TYPE_CHECKING:
@@ -503,6 +503,12 @@ def cmd_node(args: argparse.Namespace) -> int:
     out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
     if out.exists() and not is_run_folder(out):
         print(f"error: --out: {shown(out)} exists and is not a run folder", file=sys.stderr)
+        return 1
+    if holds_working_folder(out):
+        print(
+            f"error: --out: {shown(out)}: is the current folder or holds it; give a new folder",
+            file=sys.stderr,
+        )
         return 1
     try:
         bag = BagRecorder(args.bag) if args.bag else None
