@@ -273,3 +273,26 @@ def test_win_rates_by_kind_compare_the_means_over_seeds_and_count_ties_as_losses
     assert str(trace["all"]) == str(wilson(1, 3))
     none = win_rates_by_kind(s, kinds, "trace", against="sog")
     assert list(none) == ["all"] and (none["all"].k, none["all"].n) == (0, 0)
+
+
+def test_rows_without_the_zone_free_tag_are_zoned_runs():
+    """A stored run written without ``tag_no_zones`` (blank in a CSV) counts as a run with zones:
+    win rates pair it with the other policy's run instead of dropping it."""
+    import pandas as pd
+
+    from resilient_tracking.experiments.generalization import win_rates_by_kind, zone_free_rows
+
+    summary = pd.DataFrame(
+        {
+            "tag_scenario": ["a", "a", "b", "b", "a"],
+            "seed": [1, 1, 1, 1, 1],
+            "policy": ["failure_aware", "vanilla", "failure_aware", "vanilla", "failure_aware"],
+            "tag_no_zones": [np.nan, False, np.nan, "False", True],
+            "trace": [1.0, 2.0, 3.0, 2.0, 0.5],
+        }
+    )
+    assert zone_free_rows(summary).tolist() == [False, False, False, False, True]
+    rates = win_rates_by_kind(
+        summary, {"a": "with a comm zone", "b": "sensing zones only"}, "trace"
+    )
+    assert (rates["all"].k, rates["all"].n) == (1, 2)

@@ -34,6 +34,7 @@ from resilient_tracking.experiments.catalog import Task, Variant
 from resilient_tracking.experiments.generalization import (
     nozone_ratios,
     win_rates_by_kind,
+    zone_free_rows,
     zone_kind,
 )
 from resilient_tracking.experiments.report_files import ReportFiles
@@ -299,13 +300,6 @@ def _markdown_wins(runs: pd.DataFrame) -> str:
             )
         parts.append("\n".join(lines))
     return "\n\n".join(parts)
-
-
-def zone_free_rows(runs: pd.DataFrame) -> pd.Series:
-    """Which rows are zone-free reference runs (all False without a reference)."""
-    if "tag_no_zones" not in runs:
-        return pd.Series(False, index=runs.index)
-    return runs["tag_no_zones"].astype(bool)
 
 
 def last_third_ratios(runs: pd.DataFrame, reference: str) -> pd.DataFrame:

@@ -46,10 +46,17 @@ def wilson(k: int, n: int, confidence: float = 0.95) -> Proportion:
     return Proportion(k, n, float(ci.low), float(ci.high))
 
 
-def _with_zones(summary: pd.DataFrame) -> pd.DataFrame:
+def zone_free_rows(summary: pd.DataFrame) -> pd.Series:
+    """Which rows are zone-free reference runs: ``tag_no_zones`` true. A run without the tag (a
+    sweep that made no zone-free runs, or a row missing it) is not one."""
     if "tag_no_zones" not in summary:
-        return summary
-    return summary[~summary["tag_no_zones"].astype(bool)]
+        return pd.Series(False, index=summary.index)
+    tags = summary["tag_no_zones"]
+    return tags.map(lambda tag: tag is True or str(tag).strip().lower() == "true").astype(bool)
+
+
+def _with_zones(summary: pd.DataFrame) -> pd.DataFrame:
+    return summary[~zone_free_rows(summary)]
 
 
 def paired(summary: pd.DataFrame, metric: str, policies: tuple[str, str]) -> pd.DataFrame:
@@ -77,7 +84,7 @@ def nozone_ratios(
     ``reference`` (default: the same policy) with the same seed."""
     if "tag_no_zones" not in summary:
         return pd.Series(dtype=float)
-    free = summary["tag_no_zones"].astype(bool)
+    free = zone_free_rows(summary)
     index = ["tag_scenario", "seed"]
     zoned = summary[~free & (summary["policy"] == policy)]
     base = summary[free & (summary["policy"] == (reference or policy))]
@@ -159,7 +166,7 @@ def section(summary: pd.DataFrame) -> str:
         "| of them circling (radio destroyed) |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    no_zones = summary.get("tag_no_zones", pd.Series(False, index=summary.index)).astype(bool)
+    no_zones = zone_free_rows(summary)
     groups: list[tuple[str, pd.DataFrame]] = [
         (p, summary[~no_zones & (summary["policy"] == p)]) for p in POLICIES
     ]
