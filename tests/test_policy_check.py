@@ -16,16 +16,28 @@ def scenario():
     return scenarios.load("combined-temp")
 
 
+#: What a built-in policy needs from the scenario to be built: the learned one, its function.
+NEEDS = {"callable": {"callable": {"function": "learned_agents:chase"}}}
+
+
 @pytest.mark.parametrize("name", POLICIES.builtin_names())
 def test_every_builtin_policy_passes(name, scenario):
-    report = check_policy(name, scenario)
+    data = scenario.model_dump(mode="json")
+    data["policy"].update(NEEDS.get(name, {}))
+    report = check_policy(name, type(scenario).model_validate(data))
     assert report.ok, str(report)
     assert len(report.ticks) >= 10
     assert "every robot blind" in report.ticks
 
 
 def test_the_builtin_policies_register_themselves():
-    assert set(POLICIES.builtin_names()) == {"failure_aware", "vanilla", "sog"}
+    assert set(POLICIES.builtin_names()) == {"failure_aware", "vanilla", "sog", "callable"}
+
+
+def test_the_learned_policy_without_its_function_is_reported_not_raised(scenario):
+    report = check_policy("callable", scenario)
+    assert not report.ok
+    assert "params.function" in str(report)
 
 
 class Still(Policy):

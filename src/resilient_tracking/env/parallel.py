@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import numpy as np
@@ -43,16 +42,19 @@ class TrackingParallelEnv(ParallelEnv):
         self._view_space = view_space(session.shape)
         self._velocity_spaces = {agent_name(i): velocity_space(session.u_max[i]) for i in range(m)}
 
-    @functools.cache  # noqa: B019 - one space object per agent, as required
     def observation_space(self, agent: str) -> spaces.Dict:
+        """The space of a robot's view (the same for every agent)."""
         return self._view_space
 
     def action_space(self, agent: str) -> spaces.Box:
+        """Velocities within the agent's robot's bound, ``(2,)``."""
         return self._velocity_spaces[agent]
 
     def reset(
         self, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
+        """A new episode (at ``seed``, else the next seed); every agent's view and the run's
+        numbers."""
         self.session.reset(self._seeds.take(seed))
         self.agents = list(self.possible_agents)
         return self._observations(), self._infos()
@@ -66,6 +68,8 @@ class TrackingParallelEnv(ParallelEnv):
         dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
+        """Every robot moves with its agent's action (an agent left out holds); views,
+        the team's reward, terminations, truncations and the run's numbers, per agent."""
         if not self.agents:
             raise RuntimeError("the episode is over: reset the environment")
         controls = np.zeros((len(self.possible_agents), 2))
@@ -89,11 +93,13 @@ class TrackingParallelEnv(ParallelEnv):
         return {agent: controls[i] for i, agent in enumerate(self.possible_agents)}
 
     def render(self) -> np.ndarray | None:
+        """The map of the run so far (``rgb_array``), or ``None`` without a render mode."""
         if self.render_mode is None:
             return None
         return map_frame(self.session.result())
 
     def close(self) -> None:
+        """Nothing to release."""
         pass
 
     def _observations(self) -> dict[str, dict[str, np.ndarray]]:

@@ -46,6 +46,8 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """A new episode (at ``seed``, else the next seed): the team's view, the run's
+        numbers."""
         super().reset(seed=seed)
         self.session.reset(self._seeds.take(seed))
         return self._observation(), self.session.metrics()
@@ -53,6 +55,8 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
     def step(
         self, action: np.ndarray
     ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        """Every robot moves with its row of ``action``; the team's view, reward,
+        terminated, truncated and the run's numbers."""
         reward, terminated, truncated = self.session.step(np.asarray(action, dtype=float))
         return self._observation(), reward, terminated, truncated, self.session.metrics()
 
@@ -61,6 +65,7 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         return self.session.expert_controls()
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
+        """The map of the run so far (``rgb_array``), or ``None`` without a render mode."""
         if self.render_mode is None:
             return None
         return map_frame(self.session.result())
