@@ -366,7 +366,7 @@ def test_environment_observations_hold_no_truth(monkeypatch, name, seed):
     from resilient_tracking.env import parallel_env
 
     given: dict[int, object] = {}
-    original = session_module.agent_view
+    original = session_module.team_views
 
     def spying_view(belief, obs, *args):
         if obs.step % 10 == 0:
@@ -374,7 +374,7 @@ def test_environment_observations_hold_no_truth(monkeypatch, name, seed):
                 given[id(obj)] = obj
         return original(belief, obs, *args)
 
-    monkeypatch.setattr(session_module, "agent_view", spying_view)
+    monkeypatch.setattr(session_module, "team_views", spying_view)
     env = parallel_env(name, steps=150)
     observations, _ = env.reset(seed=seed)
     seen = [observations]

@@ -67,55 +67,65 @@ class ViewShape:
         }
 
 
+def team_views(
+    belief: TeamBelief,
+    obs: TeamObservation,
+    u_max: np.ndarray,
+    max_zones: int = MAX_ZONES,
+) -> dict[str, np.ndarray]:
+    """Every robot's view (module docstring) after ``belief`` took in ``obs``, each field with a
+    leading axis of the ``M`` robots; ``u_max`` ``(M,)`` are their speed bounds."""
+    m = obs.n_robots
+    league_of = belief.league_of
+    own = np.empty((m, 8), dtype=np.float32)
+    own[:, :2] = obs.positions
+    own[:, 2] = u_max
+    own[:, 3] = obs.sensing_ok
+    own[:, 4] = obs.comm_ok
+    own[:, 5] = [p == "permanent" for p in obs.sensing_persistence]
+    own[:, 6] = [p == "permanent" for p in obs.comm_persistence]
+    own[:, 7] = obs.time
+    means = np.stack([e.mean for e in belief.estimates]).astype(np.float32)
+    covs = np.stack([e.cov for e in belief.estimates]).astype(np.float32)
+    mates = (league_of[:, None] == league_of[None, :]).astype(np.float32)
+    np.fill_diagonal(mates, 0.0)
+    zones = np.zeros((m, max_zones, 7), dtype=np.float32)
+    zones_mask = np.zeros((m, max_zones), dtype=np.float32)
+    for robot in range(m):
+        if belief.knowledge[robot].zones:
+            _zone_rows(belief, robot, obs.positions[robot], zones[robot], zones_mask[robot])
+    return {
+        "own": own,
+        "targets": means[league_of],
+        "target_cov": covs[league_of],
+        "teammates": np.broadcast_to(obs.positions.astype(np.float32), (m, m, 2)).copy(),
+        "teammates_mask": mates,
+        "zones": zones,
+        "zones_mask": zones_mask,
+    }
+
+
 def agent_view(
     belief: TeamBelief,
     obs: TeamObservation,
     robot: int,
-    u_max: float,
+    u_max: np.ndarray,
     max_zones: int = MAX_ZONES,
 ) -> dict[str, np.ndarray]:
-    """Robot ``robot``'s view (module docstring) after ``belief`` took in ``obs``;
-    ``u_max`` is the robot's speed bound."""
-    league = int(belief.league_of[robot])
-    estimate = belief.estimates[league]
-    position = obs.positions[robot]
-    own = np.array(
-        [
-            position[0],
-            position[1],
-            u_max,
-            obs.sensing_ok[robot],
-            obs.comm_ok[robot],
-            obs.sensing_persistence[robot] == "permanent",
-            obs.comm_persistence[robot] == "permanent",
-            obs.time,
-        ],
-        dtype=np.float32,
-    )
-    mates = np.zeros(obs.n_robots, dtype=np.float32)
-    mates[belief.leagues[league]] = 1.0
-    mates[robot] = 0.0
-    return {
-        "own": own,
-        "targets": estimate.mean.astype(np.float32),
-        "target_cov": estimate.cov.astype(np.float32),
-        "teammates": obs.positions.astype(np.float32),
-        "teammates_mask": mates,
-        **_zone_rows(belief, robot, position, max_zones),
-    }
+    """Robot ``robot``'s view: its row of :func:`team_views`."""
+    return {name: rows[robot] for name, rows in team_views(belief, obs, u_max, max_zones).items()}
 
 
 def _zone_rows(
-    belief: TeamBelief, robot: int, position: np.ndarray, max_zones: int
-) -> dict[str, np.ndarray]:
-    """The zones ``robot`` knows, nearest (by estimated centre) first, padded to ``max_zones``."""
-    zones = np.zeros((max_zones, 7), dtype=np.float32)
-    mask = np.zeros(max_zones, dtype=np.float32)
+    belief: TeamBelief, robot: int, position: np.ndarray, zones: np.ndarray, mask: np.ndarray
+) -> None:
+    """Fill ``zones`` and ``mask`` with the zones ``robot`` knows, nearest (by estimated
+    centre) first, as many as there are rows."""
     known = sorted(
         belief.knowledge[robot].zones.values(),
         key=lambda z: (float(np.hypot(*(z.mean - position))), z.key),
     )
-    for row, z in enumerate(known[:max_zones]):
+    for row, z in enumerate(known[: len(mask)]):
         cov = z.cov
         zones[row] = (
             z.mean[0],
@@ -127,4 +137,3 @@ def _zone_rows(
             z.kind == "comm",
         )
         mask[row] = 1.0
-    return {"zones": zones, "zones_mask": mask}

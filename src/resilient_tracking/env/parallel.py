@@ -104,7 +104,10 @@ class TrackingParallelEnv(ParallelEnv):
 
     def _observations(self) -> dict[str, dict[str, np.ndarray]]:
         views = self.session.views()
-        return {agent: views[i] for i, agent in enumerate(self.possible_agents)}
+        return {
+            agent: {name: rows[i] for name, rows in views.items()}
+            for i, agent in enumerate(self.possible_agents)
+        }
 
     def _infos(self) -> dict[str, dict[str, Any]]:
         metrics = self.session.metrics()

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from resilient_tracking.belief.agent_view import MAX_ZONES, ViewShape, agent_view
+from resilient_tracking.belief.agent_view import MAX_ZONES, ViewShape, team_views
 from resilient_tracking.env.reward import StepOutcome, TrackingReward
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.records import EpisodeResult
@@ -48,6 +48,8 @@ class TrackingSession:
         self.stepper: EpisodeStepper | None = None
         self._expert_decision: Decision | None = None
         self.attacks = 0
+        #: the position trace of the team's estimate at the sensed step
+        self.trace = float("nan")
 
     # ------------------------------------------------------------------ episode
 
@@ -58,6 +60,7 @@ class TrackingSession:
         self.attacks = 0
         obs = self.stepper.sense()
         self.attacks += len(obs.attacks)
+        self.trace = self._team_trace()
 
     @property
     def running(self) -> EpisodeStepper:
@@ -86,7 +89,7 @@ class TrackingSession:
             list(range(len(controls))), obs.positions
         )
         controls = np.clip(np.asarray(controls, dtype=float), lower, upper)
-        trace_before = self.trace()
+        trace_before = self.trace
         decision = self._expert_decision
         if decision is None or not np.array_equal(controls, decision.controls):
             decision = Decision(controls, [AGENT_MODE] * len(controls))
@@ -94,9 +97,10 @@ class TrackingSession:
         self._expert_decision = None
         after = stepper.sense()
         self.attacks += len(after.attacks)
+        self.trace = self._team_trace()
         outcome = StepOutcome(
             trace_before=trace_before,
-            trace_after=self.trace(),
+            trace_after=self.trace,
             attacks=len(after.attacks),
             sensing=int(np.count_nonzero(after.sensing_ok)),
         )
@@ -106,20 +110,17 @@ class TrackingSession:
 
     # ------------------------------------------------------------------ reading
 
-    def trace(self) -> float:
+    def _team_trace(self) -> float:
         """The position trace of the team's estimate now."""
         return float(self.running.team.belief.team_estimate().position_trace())
 
-    def views(self) -> list[dict[str, np.ndarray]]:
-        """Every robot's view (:mod:`resilient_tracking.belief.agent_view`) of the current
-        step."""
+    def views(self) -> dict[str, np.ndarray]:
+        """Every robot's view of the current step, each field with a leading axis of the
+        robots (:func:`~resilient_tracking.belief.agent_view.team_views`)."""
         stepper = self.running
         assert stepper.obs is not None
         belief, obs = stepper.team.belief, stepper.obs
-        return [
-            agent_view(belief, obs, i, float(self.u_max[i]), self.shape.max_zones)
-            for i in range(self.shape.n_robots)
-        ]
+        return team_views(belief, obs, self.u_max, self.shape.max_zones)
 
     def metrics(self) -> dict[str, Any]:
         """The run's numbers now, for ``info``: step, time, the team's trace, the MSE of its
@@ -132,7 +133,7 @@ class TrackingSession:
         return {
             "step": int(obs.step),
             "time": float(obs.time),
-            "trace": self.trace(),
+            "trace": self.trace,
             "mse": mse,
             "attacks": self.attacks,
             "n_sensing_failed": int(obs.n_robots - np.count_nonzero(obs.sensing_ok)),

@@ -8,7 +8,6 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from resilient_tracking.belief.agent_view import FIELDS
 from resilient_tracking.env.options import RENDER_MODES, Seeds, make_session
 from resilient_tracking.env.render import map_frame
 from resilient_tracking.env.spaces import velocity_space, view_space
@@ -50,7 +49,7 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         numbers."""
         super().reset(seed=seed)
         self.session.reset(self._seeds.take(seed))
-        return self._observation(), self.session.metrics()
+        return self.session.views(), self.session.metrics()
 
     def step(
         self, action: np.ndarray
@@ -58,7 +57,7 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         """Every robot moves with its row of ``action``; the team's view, reward,
         terminated, truncated and the run's numbers."""
         reward, terminated, truncated = self.session.step(np.asarray(action, dtype=float))
-        return self._observation(), reward, terminated, truncated, self.session.metrics()
+        return self.session.views(), reward, terminated, truncated, self.session.metrics()
 
     def expert_action(self) -> np.ndarray:
         """The expert policy's ``(M, 2)`` action at the current step."""
@@ -69,7 +68,3 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         if self.render_mode is None:
             return None
         return map_frame(self.session.result())
-
-    def _observation(self) -> dict[str, np.ndarray]:
-        views = self.session.views()
-        return {name: np.stack([v[name] for v in views]) for name in FIELDS}

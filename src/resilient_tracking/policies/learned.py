@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import Field, field_validator
 
-from resilient_tracking.belief.agent_view import MAX_ZONES, agent_view
+from resilient_tracking.belief.agent_view import MAX_ZONES, team_views
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.observation import TeamObservation
@@ -106,8 +106,9 @@ class CallablePolicy(Policy):
         """Each robot's velocity from its own view, clipped to its bounds."""
         m = obs.n_robots
         controls = np.empty((m, 2))
+        views = team_views(belief, obs, self.config.u_max, self.params.max_zones)
         for i in range(m):
-            view = agent_view(belief, obs, i, float(self.config.u_max[i]), self.params.max_zones)
+            view = {name: rows[i] for name, rows in views.items()}
             controls[i] = np.asarray(self.function(view), dtype=float).reshape(2)
         lower, upper = self.config.velocity_bounds(list(range(m)), obs.positions)
         with np.errstate(invalid="ignore"):
