@@ -21,6 +21,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
 
+import numpy as np
+
 from benchmarks.common import machine, save, table
 
 CASES = (("sensing-temp", "3×3"), ("soak-20x20", "20×20"))
@@ -38,9 +40,11 @@ def random_actions(env: Any, steps: int) -> list[Any]:
     return [env.action_space.sample() for _ in range(steps)]
 
 
-def one_process(name: str, steps: int, planner: bool = False) -> float:
-    """Steps per second of one ``TeamEnv`` driven by random velocities (or, with ``planner``,
-    by the failure-aware policy's own)."""
+def one_process(name: str, steps: int, planner: bool = False) -> tuple[float, float]:
+    """Steps per second of wall time and per second of this process's CPU time, of one
+    ``TeamEnv`` driven by random velocities (or, with ``planner``, by the failure-aware
+    policy's own). On a machine shared with other work the CPU figure is what one core of
+    one's own would give."""
     env = make_env(name)
     actions = random_actions(env, steps)
     env.reset(seed=0)
@@ -53,9 +57,9 @@ def one_process(name: str, steps: int, planner: bool = False) -> float:
                 env.reset()
 
     run(min(20, steps))
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     run(steps)
-    return steps / (time.perf_counter() - start)
+    return steps / (time.perf_counter() - start), steps / (time.process_time() - cpu)
 
 
 def vector(name: str, steps: int, workers: int) -> float:
@@ -146,25 +150,22 @@ def main(argv: list[str] | None = None) -> None:
     rows, results = [], {}
     for name, size in CASES:
         n = int((3000 if size == "3×3" else 600) * scale)
-        single = one_process(name, n)
+        single, single_cpu = one_process(name, n)
         vec = vector(name, n, workers)
-        rows.append([size, name, "random", single, vec])
-        results[name] = {"one_process": single, f"vector_{workers}": vec}
-    planned = one_process("sensing-temp", int(600 * scale), planner=True)
-    rows.append(["3×3", "sensing-temp", "failure-aware planner", planned, float("nan")])
+        rows.append([size, name, "random", single, single_cpu, vec])
+        results[name] = {
+            "one_process": single,
+            "one_process_cpu": single_cpu,
+            f"vector_{workers}": vec,
+        }
+    planned, planned_cpu = one_process("sensing-temp", int(600 * scale), planner=True)
+    rows.append(["3×3", "sensing-temp", "failure-aware planner", planned, planned_cpu, np.nan])
     results["sensing-temp"]["one_process_planner"] = planned
-    print(
-        table(
-            rows,
-            [
-                "size",
-                "scenario",
-                "velocities",
-                "steps/s, 1 process",
-                f"steps/s, {workers} processes",
-            ],
-        )
-    )
+    results["sensing-temp"]["one_process_planner_cpu"] = planned_cpu
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"load average (1 min): {load:.2f} on {workers} cores")
+    header = ["size", "scenario", "velocities", "steps/s, 1 process", "per CPU second"]
+    print(table(rows, [*header, f"steps/s, {workers} processes"]))
     split = {
         name: parts(name, int((3000 if size == "3×3" else 600) * scale)) for name, size in CASES
     }
