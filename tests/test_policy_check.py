@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from helpers import with_policy_needs
 from resilient_tracking import scenarios
 from resilient_tracking.build import team_config
 from resilient_tracking.policies import POLICIES, Decision, Policy
@@ -16,14 +17,9 @@ def scenario():
     return scenarios.load("combined-temp")
 
 
-#: What a built-in policy needs from the scenario to be built: the learned one, its function.
-NEEDS = {"callable": {"callable": {"function": "learned_agents:chase"}}}
-
-
 @pytest.mark.parametrize("name", POLICIES.builtin_names())
 def test_every_builtin_policy_passes(name, scenario):
-    data = scenario.model_dump(mode="json")
-    data["policy"].update(NEEDS.get(name, {}))
+    data = with_policy_needs(scenario.model_dump(mode="json"), name)
     report = check_policy(name, type(scenario).model_validate(data))
     assert report.ok, str(report)
     assert len(report.ticks) >= 10
