@@ -149,3 +149,22 @@ def test_render_draws_the_map_of_the_run_so_far():
     assert frame is not None and frame.shape == (480, 640, 3) and frame.dtype == np.uint8
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 10  # something drawn
     assert TeamEnv("sensing-perm", steps=STEPS).render() is None
+
+
+def test_after_a_split_each_robot_sees_its_own_leagues_estimate():
+    env = TeamEnv("comm-perm", steps=300)
+    obs, info = env.reset(seed=1)
+    while info["n_leagues"] < 2:
+        obs, _, terminated, truncated, info = env.step(env.expert_action())
+        assert not (terminated or truncated), "no split happened"
+    belief = env.session.running.team.belief
+    for robot in range(3):
+        league = belief.league_of[robot]
+        estimate = belief.estimates[league]
+        assert np.array_equal(obs["targets"][robot], estimate.mean.astype(np.float32))
+        assert np.array_equal(obs["target_cov"][robot], estimate.cov.astype(np.float32))
+        mates = [i for i in belief.leagues[league] if i != robot]
+        assert np.flatnonzero(obs["teammates_mask"][robot]).tolist() == mates
+    assert not np.array_equal(obs["targets"][0], obs["targets"][1]) or not np.array_equal(
+        obs["targets"][1], obs["targets"][2]
+    )

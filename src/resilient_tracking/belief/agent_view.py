@@ -85,10 +85,17 @@ def team_views(
     own[:, 5] = [p == "permanent" for p in obs.sensing_persistence]
     own[:, 6] = [p == "permanent" for p in obs.comm_persistence]
     own[:, 7] = obs.time
-    means = np.stack([e.mean for e in belief.estimates]).astype(np.float32)
-    covs = np.stack([e.cov for e in belief.estimates]).astype(np.float32)
+    if len(belief.estimates) == 1:  # one league: every robot sees the same estimate
+        means = np.empty((m, *belief.estimates[0].mean.shape), dtype=np.float32)
+        covs = np.empty((m, *belief.estimates[0].cov.shape), dtype=np.float32)
+        means[:], covs[:] = belief.estimates[0].mean, belief.estimates[0].cov
+    else:
+        means = np.stack([e.mean for e in belief.estimates]).astype(np.float32)[league_of]
+        covs = np.stack([e.cov for e in belief.estimates]).astype(np.float32)[league_of]
     mates = (league_of[:, None] == league_of[None, :]).astype(np.float32)
     np.fill_diagonal(mates, 0.0)
+    teammates = np.empty((m, m, 2), dtype=np.float32)
+    teammates[:] = obs.positions
     zones = np.zeros((m, max_zones, 7), dtype=np.float32)
     zones_mask = np.zeros((m, max_zones), dtype=np.float32)
     for robot in range(m):
@@ -96,9 +103,9 @@ def team_views(
             _zone_rows(belief, robot, obs.positions[robot], zones[robot], zones_mask[robot])
     return {
         "own": own,
-        "targets": means[league_of],
-        "target_cov": covs[league_of],
-        "teammates": np.broadcast_to(obs.positions.astype(np.float32), (m, m, 2)).copy(),
+        "targets": means,
+        "target_cov": covs,
+        "teammates": teammates,
         "teammates_mask": mates,
         "zones": zones,
         "zones_mask": zones_mask,
