@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import casadi as ca
 import numpy as np
 
@@ -94,3 +96,16 @@ def run_checked(cmd: list[str], cwd, env: dict[str, str] | None = None, timeout:
     done = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
     assert done.returncode == 0, f"{cmd} failed:\n{done.stdout}\n{done.stderr}"
     return done
+
+
+#: What a built-in policy needs from its scenario to be built: the learned one, its function.
+POLICY_NEEDS = {"callable": {"callable": {"function": "learned_agents:chase"}}}
+
+
+def with_policy_needs(data: dict, policy: str) -> dict:
+    """A copy of the scenario mapping ``data`` with what ``policy`` needs to be built."""
+    data = copy.deepcopy(data)
+    section = data.setdefault("policy", {})
+    for key, needed in POLICY_NEEDS.get(policy, {}).items():
+        section[key] = {**section.get(key, {}), **needed}
+    return data

@@ -346,3 +346,60 @@ def test_the_runtime_check_would_catch_a_world_object():
     hidden = {"cache": [(1, world.zones[0])]}  # a true zone two levels down
     assert any("TrueZone" in b for b in truth_objects(reachable(hidden)))
     assert any("Scenario" in b for b in truth_objects(reachable([shipped("sensing-perm")])))
+
+
+def test_the_learning_agents_view_is_made_on_the_belief_side():
+    assert PACKAGE / "belief" / "agent_view.py" in belief_side_files()
+    session = (PACKAGE / "env" / "session.py").read_text()
+    assert "from resilient_tracking.belief.agent_view import" in session
+    # the environment's observations are the views, unchanged
+    for name in ("parallel.py", "team.py"):
+        source = (PACKAGE / "env" / name).read_text()
+        assert "self.session.views()" in source
+        assert "world" not in source.replace("world, failure process", "")
+
+
+@pytest.mark.parametrize(("name", "seed"), [("sensing-perm", 1), ("combined-perm", 2)])
+def test_environment_observations_hold_no_truth(monkeypatch, name, seed):
+    pytest.importorskip("pettingzoo")
+    import resilient_tracking.env.session as session_module
+    from resilient_tracking.env import parallel_env
+
+    given: dict[int, object] = {}
+    original = session_module.team_views
+
+    def spying_view(belief, obs, *args):
+        if obs.step % 10 == 0:
+            for obj in reachable(belief, obs):
+                given[id(obj)] = obj
+        return original(belief, obs, *args)
+
+    monkeypatch.setattr(session_module, "team_views", spying_view)
+    env = parallel_env(name, steps=150)
+    observations, _ = env.reset(seed=seed)
+    seen = [observations]
+    true_targets = []
+    while env.agents:
+        true_targets.append(env.session.running.world.target_states[:, :2].copy())
+        observations, *_ = env.step(env.expert_actions())
+        seen.append(observations)
+    assert len(given) > 50 and truth_objects(list(given.values())) == []
+    zones = env.session.result()["zones"]
+    assert zones["true_x"].ne(zones["mu_x"]).all()  # drawn centres differ from the priors
+    values = np.concatenate(
+        [field.ravel() for obs in seen for view in obs.values() for field in view.values()]
+    )
+    for cx, cy in zones[["true_x", "true_y"]].to_numpy(np.float32):
+        assert not (np.any(values == cx) and np.any(values == cy))
+    for obs, truth in zip(seen, true_targets, strict=False):  # estimates, never true positions
+        for view in obs.values():
+            assert not (view["targets"][:, :2] == truth.astype(np.float32)).all(axis=1).any()
+
+
+def test_the_observation_check_would_catch_a_true_center():
+    from resilient_tracking.world import World
+
+    world = World(shipped("sensing-perm"), seed=0)
+    cx, cy = world.zones[0].center.astype(np.float32)
+    leaked = np.array([1.0, cx, 2.0, cy], dtype=np.float32)
+    assert np.any(leaked == cx) and np.any(leaked == cy)

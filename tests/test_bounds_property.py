@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import SCENARIOS
+from helpers import with_policy_needs
 from resilient_tracking.policies import POLICIES
 from resilient_tracking.scenario import (
     MAX_COORDINATE,
@@ -112,7 +113,7 @@ def scenario_at_the_edges(draw: st.DrawFn) -> dict[str, Any]:
 @given(scenario_at_the_edges(), st.sampled_from(POLICIES.builtin_names()))
 @pytest.mark.filterwarnings("error::RuntimeWarning")  # an overflow or 0/0 is a numerical bug
 def test_every_policy_runs_scenarios_at_the_edges_of_the_bounds_with_finite_numbers(data, policy):
-    result = run_episode(parse_scenario(data), policy=policy)
+    result = run_episode(parse_scenario(with_policy_needs(data, policy)), policy=policy)
     assert len(result["team"]) == 3
     for name, table in result.tables.items():
         numbers = table.select_dtypes("number").to_numpy(dtype=float)
@@ -127,7 +128,7 @@ def test_a_zone_on_a_robot_with_the_extreme_covariances_runs_finite(policy, sigm
     data["steps"] = 3
     data["zones"][0]["sigma"] = sigma
     data["zones"][0]["mu"] = list(data["robots"][0]["start"])
-    result = run_episode(parse_scenario(data), policy=policy)
+    result = run_episode(parse_scenario(with_policy_needs(data, policy)), policy=policy)
     for table in result.tables.values():
         assert np.all(np.isfinite(table.select_dtypes("number").to_numpy(dtype=float)))
 
@@ -157,7 +158,7 @@ def _every_field_base() -> dict[str, Any]:
         name: POLICIES.get(name).Params().model_dump(mode="json")
         for name in POLICIES.builtin_names()
     }
-    return data
+    return with_policy_needs(data, "callable")
 
 
 EVERY_FIELD = _every_field_base()

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
-TUTORIALS = ["team-api.md", "own-policy.md"]
+TUTORIALS = ["team-api.md", "own-policy.md", "environment.md"]
 
 
 @pytest.mark.parametrize("page", TUTORIALS)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from helpers import with_policy_needs
 from resilient_tracking import scenarios
 from resilient_tracking.build import team_config
 from resilient_tracking.policies import POLICIES, Decision, Policy
@@ -18,14 +19,21 @@ def scenario():
 
 @pytest.mark.parametrize("name", POLICIES.builtin_names())
 def test_every_builtin_policy_passes(name, scenario):
-    report = check_policy(name, scenario)
+    data = with_policy_needs(scenario.model_dump(mode="json"), name)
+    report = check_policy(name, type(scenario).model_validate(data))
     assert report.ok, str(report)
     assert len(report.ticks) >= 10
     assert "every robot blind" in report.ticks
 
 
 def test_the_builtin_policies_register_themselves():
-    assert set(POLICIES.builtin_names()) == {"failure_aware", "vanilla", "sog"}
+    assert set(POLICIES.builtin_names()) == {"failure_aware", "vanilla", "sog", "callable"}
+
+
+def test_the_learned_policy_without_its_function_is_reported_not_raised(scenario):
+    report = check_policy("callable", scenario)
+    assert not report.ok
+    assert "params.function" in str(report)
 
 
 class Still(Policy):

@@ -125,6 +125,11 @@ class Team:
 
     def step(self, obs: TeamObservation) -> TeamStep:
         """One tick: update belief with ``obs``, plan, return commands and every event."""
+        return self.decide(obs, self.perceive(obs))
+
+    def perceive(self, obs: TeamObservation) -> list[Event]:
+        """The first half of a tick: check ``obs``, update the belief with it; return the
+        tick's events so far (attacks and recoveries observed, then the belief's)."""
         if obs.n_robots != self.belief.n_robots:
             raise ValueError(
                 f"TeamObservation.positions: the team has {self.belief.n_robots} robots, "
@@ -153,11 +158,20 @@ class Team:
         ]
         events += [Event.recover(obs.step, robot, kind) for robot, kind in obs.recoveries]
         events += self.belief.update(obs)
-        decision = self.policy.act(self.belief, obs)
+        return events
+
+    def decide(
+        self, obs: TeamObservation, events: list[Event], decision: Decision | None = None
+    ) -> TeamStep:
+        """The second half of a tick, after :meth:`perceive` gave ``events``: the policy's
+        decision (or ``decision``, made elsewhere, e.g. by a learning agent), checked like the
+        policy's; returns the commands and every event of the tick."""
+        if decision is None:
+            decision = self.policy.act(self.belief, obs)
         controls, problems = decision_problems(decision, self.config, obs.positions)
         if problems:
             decision = self._contain(decision, controls, problems, obs)
-        events += decision.events
+        events = events + decision.events
         events += [
             Event.zone_learned(obs.step, robot, z.key, z.kind, z.source, z.zone_id, z.persistence)
             for robot, z in self.belief.learned

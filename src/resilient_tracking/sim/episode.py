@@ -1,12 +1,14 @@
 """The episode loop: the only place where truth (world) and belief (team) meet.
 
-Per step ``k``: the world is observed, the team updates its belief and plans, the step's
-rows are recorded (the team's by a :class:`~resilient_tracking.runs.team_recorder.TeamRecorder`,
-truth at ``k`` against the team's estimate at ``k`` by a
-:class:`~resilient_tracking.runs.truth_recorder.TruthRecorder`), then the world advances with
-the commands. Each step's numbers are checked to be finite (:func:`check_finite`): a run that
-meets NaN or infinity stops with :class:`NonFiniteError` naming the quantity and the step, so
-no table ever holds one.
+Per step ``k`` (:class:`EpisodeStepper`, which :func:`run_episode` drives and the learning
+environments of :mod:`resilient_tracking.env` share): the world is observed and the team updates
+its belief (:meth:`EpisodeStepper.sense`); then (:meth:`EpisodeStepper.act`) the team decides,
+by its policy or with a decision made elsewhere, the step's rows are recorded (the team's by a
+:class:`~resilient_tracking.runs.team_recorder.TeamRecorder`, truth at ``k`` against the team's
+estimate at ``k`` by a :class:`~resilient_tracking.runs.truth_recorder.TruthRecorder`), and the
+world advances with the commands. Each step's numbers are checked to be finite
+(:func:`check_finite`): a run that meets NaN or infinity stops with :class:`NonFiniteError`
+naming the quantity and the step, so no table ever holds one.
 """
 
 from __future__ import annotations
@@ -20,13 +22,16 @@ import numpy as np
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.build import prior_estimate
+from resilient_tracking.events import Event
+from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook
+from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.manifest import episode_manifest
 from resilient_tracking.runs.records import EpisodeResult, join_tables
 from resilient_tracking.runs.team_recorder import TeamRecorder
 from resilient_tracking.runs.truth_recorder import TruthRecorder
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.team import build_team
+from resilient_tracking.team import TeamStep, build_team
 from resilient_tracking.world import World
 from resilient_tracking.world.targets import TargetTruth
 from resilient_tracking.world.world import make_zones
@@ -63,6 +68,77 @@ def start_truth(scenario: Scenario, seed: int) -> tuple[np.ndarray, list[TrueZon
     return states, make_zones(scenario, seed)
 
 
+class EpisodeStepper:
+    """One episode, a step at a time: the world, the team, and the records of both.
+
+    Each step is :meth:`sense` (the world is observed, the team's belief takes it in), then
+    :meth:`act` (the team's decision, recorded, then the world advances); :func:`run_episode`
+    alternates the two ``scenario.steps`` times, and :meth:`result` gives its tables."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        policy: str,
+        seed: int,
+        fault_hook: FaultHook | None = None,
+    ):
+        self.scenario = scenario
+        self.policy_name = policy
+        self.seed = seed
+        self.world = World(scenario, seed)
+        self.team = build_team(scenario, policy, seed, self.world.target_states, fault_hook)
+        self.team_rows = TeamRecorder(self.world.n_robots, len(self.world.targets), scenario.steps)
+        self.truth_rows = TruthRecorder(len(self.world.targets), scenario.steps, self.world.zones)
+        #: steps acted (and recorded) so far
+        self.steps_done = 0
+        #: the observation of the current step, once sensed
+        self.obs: TeamObservation | None = None
+        self._truth: np.ndarray | None = None
+        self._events: list[Event] = []
+
+    def sense(self) -> TeamObservation:
+        """Observe the world at the current step and update the team's belief with it."""
+        self.obs = obs = self.world.observe()
+        self._truth = self.world.target_states
+        self._events = self.team.perceive(obs)
+        return obs
+
+    def act(self, decision: Decision | None = None) -> TeamStep:
+        """The team's decision for the sensed step (its policy's, or ``decision``), recorded;
+        then the world advances with its commands."""
+        obs, truth = self.obs, self._truth
+        if obs is None or truth is None:
+            raise RuntimeError("EpisodeStepper.act: sense the step first")
+        out = self.team.decide(obs, self._events, decision)
+        applied = self.world.step(out.controls)
+        self.team_rows.step(obs, out, applied, self.team.belief)
+        estimate = self.team.belief.team_estimate()
+        self.truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
+        check_finite(
+            obs.step,
+            {
+                "a robot's position": obs.positions,
+                "a robot's applied control": applied,
+                "a target's true state": truth,
+                "the team's target estimate": estimate.mean,
+                "the team's target covariance": estimate.cov,
+                "the MSE of the team's estimate": self.truth_rows.team.last("mse"),
+            },
+        )
+        self.obs, self._truth, self._events = None, None, []
+        self.steps_done += 1
+        return out
+
+    def result(self, wall: float = float("nan")) -> EpisodeResult:
+        """The tables of the steps acted so far, with the manifest (``wall``: seconds taken)."""
+        manifest = episode_manifest(
+            self.scenario, self.seed, self.policy_name, self.steps_done, wall
+        )
+        return EpisodeResult(
+            join_tables(self.team_rows.tables(), self.truth_rows.tables()), manifest
+        )
+
+
 def run_episode(
     scenario: Scenario,
     policy: str | None = None,
@@ -77,29 +153,10 @@ def run_episode(
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
-    world = World(scenario, seed)
-    team = build_team(scenario, policy_name, seed, world.target_states, fault_hook)
-    team_rows = TeamRecorder(world.n_robots, len(world.targets), scenario.steps)
-    truth_rows = TruthRecorder(len(world.targets), scenario.steps, world.zones)
+    stepper = EpisodeStepper(scenario, policy_name, seed, fault_hook)
     for _ in range(scenario.steps):
-        obs = world.observe()
-        truth = world.target_states
-        out = team.step(obs)
-        applied = world.step(out.controls)
-        team_rows.step(obs, out, applied, team.belief)
-        estimate = team.belief.team_estimate()
-        truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
-        check_finite(
-            obs.step,
-            {
-                "a robot's position": obs.positions,
-                "a robot's applied control": applied,
-                "a target's true state": truth,
-                "the team's target estimate": estimate.mean,
-                "the team's target covariance": estimate.cov,
-                "the MSE of the team's estimate": truth_rows.team.last("mse"),
-            },
-        )
+        stepper.sense()
+        stepper.act()
         if progress is not None:
             progress(1)
     wall = time.perf_counter() - started
@@ -111,5 +168,4 @@ def run_episode(
         scenario.steps,
         wall,
     )
-    manifest = episode_manifest(scenario, seed, policy_name, scenario.steps, wall)
-    return EpisodeResult(join_tables(team_rows.tables(), truth_rows.tables()), manifest)
+    return stepper.result(wall)

@@ -1,0 +1,185 @@
+"""Throughput of the learning environments: environment steps per second, without a planner
+(random velocities), at 3×3 (``sensing-temp``) and 20×20 (``soak-20x20``), in one process and
+as a vector of processes (Gymnasium's ``AsyncVectorEnv``, one per core); then where one step's
+time goes, part by part.
+
+    python -m benchmarks.env_steps            # about a minute
+    python -m benchmarks.env_steps --quick    # a smoke run
+
+Each measurement first runs a few steps untimed (imports, first allocations). Steps count every
+``step`` call; an episode that ends is reset (its reset is timed too). The random velocities are
+drawn before the clock starts, so the numbers are the environment's alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import os
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from benchmarks.common import machine, save, table
+
+CASES = (("sensing-temp", "3×3"), ("soak-20x20", "20×20"))
+
+
+def make_env(name: str) -> Any:
+    from resilient_tracking.env import TeamEnv
+
+    return TeamEnv(name)
+
+
+def random_actions(env: Any, steps: int) -> list[Any]:
+    """``steps`` random velocities of ``env``'s action space (seeded)."""
+    env.action_space.seed(0)
+    return [env.action_space.sample() for _ in range(steps)]
+
+
+def one_process(name: str, steps: int, planner: bool = False) -> tuple[float, float]:
+    """Steps per second of wall time and per second of this process's CPU time, of one
+    ``TeamEnv`` driven by random velocities (or, with ``planner``, by the failure-aware
+    policy's own). On a machine shared with other work the CPU figure is what one core of
+    one's own would give."""
+    env = make_env(name)
+    actions = random_actions(env, steps)
+    env.reset(seed=0)
+
+    def run(n: int) -> None:
+        for i in range(n):
+            action = env.expert_action() if planner else actions[i]
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                env.reset()
+
+    run(min(20, steps))
+    start, cpu = time.perf_counter(), time.process_time()
+    run(steps)
+    return steps / (time.perf_counter() - start), steps / (time.process_time() - cpu)
+
+
+def vector(name: str, steps: int, workers: int) -> float:
+    """Steps per second (all workers' together) of ``workers`` environments in their own
+    processes, stepped together."""
+    import gymnasium
+
+    envs = gymnasium.vector.AsyncVectorEnv([functools.partial(make_env, name)] * workers)
+    try:
+        envs.action_space.seed(0)
+        actions = [envs.action_space.sample() for _ in range(steps // workers)]
+        envs.reset(seed=0)
+        for action in actions[:10]:
+            envs.step(action)
+        start = time.perf_counter()
+        for action in actions:
+            envs.step(action)
+        return workers * (steps // workers) / (time.perf_counter() - start)
+    finally:
+        envs.close()
+
+
+@contextmanager
+def timed_parts(spent: dict[str, float]) -> Iterator[None]:
+    """Add each part's time to ``spent`` while inside (the parts' methods wrapped)."""
+    from resilient_tracking.belief.team_belief import TeamBelief
+    from resilient_tracking.env import session
+    from resilient_tracking.runs.team_recorder import TeamRecorder
+    from resilient_tracking.runs.truth_recorder import TruthRecorder
+    from resilient_tracking.team import Team
+    from resilient_tracking.world import World
+
+    parts: list[tuple[Any, str, str]] = [
+        (World, "observe", "world: observe"),
+        (World, "step", "world: move, attacks, links"),
+        (TeamBelief, "update", "belief: EKF, leagues, zones"),
+        (Team, "decide", "decision checks"),
+        (TeamRecorder, "step", "run tables"),
+        (TruthRecorder, "step", "run tables"),
+        (session, "team_views", "agents' views"),
+    ]
+    saved = [(owner, attr, getattr(owner, attr)) for owner, attr, _ in parts]
+
+    def wrap(function: Callable[..., Any], label: str) -> Callable[..., Any]:
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent[label] = spent.get(label, 0.0) + time.perf_counter() - start
+
+        return timed
+
+    for (owner, attr, label), (_, _, original) in zip(parts, saved, strict=True):
+        setattr(owner, attr, wrap(original, label))
+    try:
+        yield
+    finally:
+        for owner, attr, original in saved:
+            setattr(owner, attr, original)
+
+
+def parts(name: str, steps: int) -> dict[str, float]:
+    """Microseconds per step of each part of an environment step (random velocities)."""
+    env = make_env(name)
+    actions = random_actions(env, steps)
+    env.reset(seed=0)
+    spent: dict[str, float] = {}
+    with timed_parts(spent):
+        start = time.perf_counter()
+        for action in actions:
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                env.reset()
+        total = time.perf_counter() - start
+    spent["the rest (reward, info, clipping)"] = total - sum(spent.values())
+    return {label: 1e6 * seconds / steps for label, seconds in spent.items()} | {
+        "total": 1e6 * total / steps
+    }
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    scale = 0.1 if args.quick else 1.0
+    workers = os.cpu_count() or 1
+    rows, results = [], {}
+    for name, size in CASES:
+        n = int((3000 if size == "3×3" else 600) * scale)
+        single, single_cpu = one_process(name, n)
+        vec = vector(name, n, workers)
+        rows.append([size, name, "random", single, single_cpu, vec])
+        results[name] = {
+            "one_process": single,
+            "one_process_cpu": single_cpu,
+            f"vector_{workers}": vec,
+        }
+    planned, planned_cpu = one_process("sensing-temp", int(600 * scale), planner=True)
+    rows.append(["3×3", "sensing-temp", "failure-aware planner", planned, planned_cpu, np.nan])
+    results["sensing-temp"]["one_process_planner"] = planned
+    results["sensing-temp"]["one_process_planner_cpu"] = planned_cpu
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"load average (1 min): {load:.2f} on {workers} cores")
+    header = ["size", "scenario", "velocities", "steps/s, 1 process", "per CPU second"]
+    print(table(rows, [*header, f"steps/s, {workers} processes"]))
+    split = {
+        name: parts(name, int((3000 if size == "3×3" else 600) * scale)) for name, size in CASES
+    }
+    labels = list(split[CASES[0][0]])
+    print()
+    print(
+        table(
+            [[label, *(split[name][label] for name, _ in CASES)] for label in labels],
+            ["µs per step", *(f"{size} ({name})" for name, size in CASES)],
+        )
+    )
+    path = save("env_steps", {"machine": machine(), "steps_per_s": results, "parts_us": split})
+    print(f"\nsaved {path}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,146 @@
+"""What one robot knows, as fixed-size arrays: the observation of a learning agent.
+
+Made from the team's belief and the tick's observation only (never the world), so it is the
+same under ``rtrack run`` (:class:`~resilient_tracking.policies.learned.CallablePolicy`) and in
+the learning environments (:mod:`resilient_tracking.env`). Every field is ``float32``; masks
+say which rows hold something. For a team of ``M`` robots, ``N`` targets and room for ``Z``
+zones, robot ``i`` sees:
+
+========================  ============  =====================================================
+field                     shape         content
+========================  ============  =====================================================
+``own``                   (8,)          x, y, speed bound, sensing ok, comm ok, sensing out
+                                        for good, comm out for good, time (s)
+``targets``               (N, 4)        its league's estimate ``[px, py, vx, vy]``
+``target_cov``            (N, 4, 4)     its league's covariance of each target
+``teammates``             (M, 2)        every robot's position (own included)
+``teammates_mask``        (M,)          1 for the other members of its league
+``zones``                 (Z, 7)        zones it knows, nearest first: x, y, σxx, σxy, σyy,
+                                        size (radius or jamming strength), 1 for comm
+``zones_mask``            (Z,)          1 for the rows that hold a zone
+========================  ============  =====================================================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.observation import TeamObservation
+
+#: Room for known zones in a view, unless told otherwise (the nearest are kept).
+MAX_ZONES = 8
+
+#: The fields of a view, in order.
+FIELDS = (
+    "own",
+    "targets",
+    "target_cov",
+    "teammates",
+    "teammates_mask",
+    "zones",
+    "zones_mask",
+)
+
+
+@dataclass(frozen=True)
+class ViewShape:
+    """The sizes of a view: robots ``M``, targets ``N``, zone rows ``Z``."""
+
+    n_robots: int
+    n_targets: int
+    max_zones: int = MAX_ZONES
+
+    def shapes(self) -> dict[str, tuple[int, ...]]:
+        """Each field's shape."""
+        m, n, z = self.n_robots, self.n_targets, self.max_zones
+        return {
+            "own": (8,),
+            "targets": (n, 4),
+            "target_cov": (n, 4, 4),
+            "teammates": (m, 2),
+            "teammates_mask": (m,),
+            "zones": (z, 7),
+            "zones_mask": (z,),
+        }
+
+
+def team_views(
+    belief: TeamBelief,
+    obs: TeamObservation,
+    u_max: np.ndarray,
+    max_zones: int = MAX_ZONES,
+) -> dict[str, np.ndarray]:
+    """Every robot's view (module docstring) after ``belief`` took in ``obs``, each field with a
+    leading axis of the ``M`` robots; ``u_max`` ``(M,)`` are their speed bounds."""
+    m = obs.n_robots
+    league_of = belief.league_of
+    own = np.empty((m, 8), dtype=np.float32)
+    own[:, :2] = obs.positions
+    own[:, 2] = u_max
+    own[:, 3] = obs.sensing_ok
+    own[:, 4] = obs.comm_ok
+    own[:, 5] = [p == "permanent" for p in obs.sensing_persistence]
+    own[:, 6] = [p == "permanent" for p in obs.comm_persistence]
+    own[:, 7] = obs.time
+    if len(belief.estimates) == 1:  # one league: every robot sees the same estimate
+        means = np.empty((m, *belief.estimates[0].mean.shape), dtype=np.float32)
+        covs = np.empty((m, *belief.estimates[0].cov.shape), dtype=np.float32)
+        means[:], covs[:] = belief.estimates[0].mean, belief.estimates[0].cov
+    else:
+        means = np.stack([e.mean for e in belief.estimates]).astype(np.float32)[league_of]
+        covs = np.stack([e.cov for e in belief.estimates]).astype(np.float32)[league_of]
+    mates = (league_of[:, None] == league_of[None, :]).astype(np.float32)
+    np.fill_diagonal(mates, 0.0)
+    teammates = np.empty((m, m, 2), dtype=np.float32)
+    teammates[:] = obs.positions
+    zones = np.zeros((m, max_zones, 7), dtype=np.float32)
+    zones_mask = np.zeros((m, max_zones), dtype=np.float32)
+    for robot in range(m):
+        if belief.knowledge[robot].zones:
+            _zone_rows(belief, robot, obs.positions[robot], zones[robot], zones_mask[robot])
+    return {
+        "own": own,
+        "targets": means,
+        "target_cov": covs,
+        "teammates": teammates,
+        "teammates_mask": mates,
+        "zones": zones,
+        "zones_mask": zones_mask,
+    }
+
+
+def agent_view(
+    belief: TeamBelief,
+    obs: TeamObservation,
+    robot: int,
+    u_max: np.ndarray,
+    max_zones: int = MAX_ZONES,
+) -> dict[str, np.ndarray]:
+    """Robot ``robot``'s view: its row of :func:`team_views`."""
+    return {name: rows[robot] for name, rows in team_views(belief, obs, u_max, max_zones).items()}
+
+
+def _zone_rows(
+    belief: TeamBelief, robot: int, position: np.ndarray, zones: np.ndarray, mask: np.ndarray
+) -> None:
+    """Fill ``zones`` and ``mask`` with the zones ``robot`` knows, nearest (by estimated
+    centre) first, as many as there are rows."""
+    known = sorted(
+        belief.knowledge[robot].zones.values(),
+        key=lambda z: (float(np.hypot(*(z.mean - position))), z.key),
+    )
+    for row, z in enumerate(known[: len(mask)]):
+        cov = z.cov
+        zones[row] = (
+            z.mean[0],
+            z.mean[1],
+            cov[0, 0],
+            cov[0, 1],
+            cov[1, 1],
+            z.size,
+            z.kind == "comm",
+        )
+        mask[row] = 1.0

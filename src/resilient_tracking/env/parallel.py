@@ -1,0 +1,114 @@
+"""The team as a PettingZoo ``ParallelEnv``: one agent per robot, all acting at once."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from resilient_tracking.env.options import RENDER_MODES, Seeds
+from resilient_tracking.env.render import map_frame
+from resilient_tracking.env.session import TrackingSession
+from resilient_tracking.env.spaces import velocity_space, view_space
+
+
+def agent_name(robot: int) -> str:
+    """The agent of robot ``robot``: ``robot_0``, ``robot_1``…"""
+    return f"robot_{robot}"
+
+
+class TrackingParallelEnv(ParallelEnv):
+    """Every robot of a scenario's team as an agent (see ``docs/environment.md``).
+
+    Each agent observes its robot's view (:mod:`resilient_tracking.belief.agent_view`) and
+    acts with a velocity ``(2,)`` within its bound; every agent gets the team's reward. The
+    episode ends for all agents at once: terminated when every sensor is out, truncated at the
+    scenario's steps. ``infos`` hold the run's numbers (:meth:`TrackingSession.metrics`).
+    """
+
+    metadata = {"name": "resilient_tracking_v0", "render_modes": list(RENDER_MODES)}
+
+    def __init__(self, session: TrackingSession, seed: int, render_mode: str | None = None):
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(f"render_mode: expected one of {RENDER_MODES}, got {render_mode!r}")
+        self.session = session
+        self.render_mode = render_mode
+        self._seeds = Seeds(seed)
+        m = session.shape.n_robots
+        self.possible_agents = [agent_name(i) for i in range(m)]
+        self.agents: list[str] = []
+        self._view_space = view_space(session.shape)
+        self._velocity_spaces = {agent_name(i): velocity_space(session.u_max[i]) for i in range(m)}
+
+    def observation_space(self, agent: str) -> spaces.Dict:
+        """The space of a robot's view (the same for every agent)."""
+        return self._view_space
+
+    def action_space(self, agent: str) -> spaces.Box:
+        """Velocities within the agent's robot's bound, ``(2,)``."""
+        return self._velocity_spaces[agent]
+
+    def reset(
+        self, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
+        """A new episode (at ``seed``, else the next seed); every agent's view and the run's
+        numbers."""
+        self.session.reset(self._seeds.take(seed))
+        self.agents = list(self.possible_agents)
+        return self._observations(), self._infos()
+
+    def step(
+        self, actions: dict[str, np.ndarray]
+    ) -> tuple[
+        dict[str, dict[str, np.ndarray]],
+        dict[str, float],
+        dict[str, bool],
+        dict[str, bool],
+        dict[str, dict[str, Any]],
+    ]:
+        """Every robot moves with its agent's action (an agent left out holds); views,
+        the team's reward, terminations, truncations and the run's numbers, per agent."""
+        if not self.agents:
+            raise RuntimeError("the episode is over: reset the environment")
+        controls = np.zeros((len(self.possible_agents), 2))
+        for i, agent in enumerate(self.possible_agents):
+            if agent in actions:
+                controls[i] = np.asarray(actions[agent], dtype=float).reshape(2)
+        reward, terminated, truncated = self.session.step(controls)
+        agents = self.agents
+        observations, infos = self._observations(), self._infos()
+        rewards = dict.fromkeys(agents, reward)
+        terminations = dict.fromkeys(agents, terminated)
+        truncations = dict.fromkeys(agents, truncated and not terminated)
+        if terminated or truncated:
+            self.agents = []
+        return observations, rewards, terminations, truncations, infos
+
+    def expert_actions(self) -> dict[str, np.ndarray]:
+        """The expert policy's action for every agent at the current step (stepping with them
+        reproduces ``rtrack run`` with that policy)."""
+        controls = self.session.expert_controls()
+        return {agent: controls[i] for i, agent in enumerate(self.possible_agents)}
+
+    def render(self) -> np.ndarray | None:
+        """The map of the run so far (``rgb_array``), or ``None`` without a render mode."""
+        if self.render_mode is None:
+            return None
+        return map_frame(self.session.result())
+
+    def close(self) -> None:
+        """Nothing to release."""
+        pass
+
+    def _observations(self) -> dict[str, dict[str, np.ndarray]]:
+        views = self.session.views()
+        return {
+            agent: {name: rows[i] for name, rows in views.items()}
+            for i, agent in enumerate(self.possible_agents)
+        }
+
+    def _infos(self) -> dict[str, dict[str, Any]]:
+        metrics = self.session.metrics()
+        return {agent: dict(metrics) for agent in self.possible_agents}
