@@ -17,10 +17,13 @@ from resilient_tracking.scenario.paths import set_path, set_paths
 __all__ = ["PAPER_METHOD", "apply_overrides", "overridden", "set_path"]
 
 #: The paper's method as written, by dotted path: its one-step program (eq. 9) and its
-#: constraint set (eqs. 7c, 7d; none of the failure-aware policy's hazard guard).
+#: constraint set (eqs. 7c, 7d; none of the failure-aware policy's hazard guard), with the
+#: provisional comm zone of a silent teammate at the spread the paper's experiments were
+#: reproduced with (docs/model.md §10.1).
 PAPER_METHOD: dict[str, Any] = {
     "planner.program": "one_step",
     "policy.failure_aware.hazard_guard": False,
+    "policy.failure_aware.silence_std": 0.3,
 }
 
 
