@@ -28,8 +28,15 @@ from resilient_tracking.scenario.overrides import overridden
 def test_override_values_are_read_as_yaml():
     assert parse_override("policy.failure_aware.eps1=0.05") == ("policy.failure_aware.eps1", 0.05)
     assert parse_override("zones.0.mu=[1, 2]") == ("zones.0.mu", [1, 2])
+    # numbers as a scenario file reads them (YAML 1.2), not strings as YAML 1.1 has them
+    assert parse_override("robots.0.u_max=1e300") == ("robots.0.u_max", 1e300)
+    assert parse_override("estimator.accel_std=5E-1") == ("estimator.accel_std", 0.5)
     with pytest.raises(ValueError, match="--set"):
         parse_override("steps")
+    with pytest.raises(ValueError, match="--set zones: not valid YAML"):
+        parse_override("zones=[1, 2")
+    with pytest.raises(ValueError, match="--set a: duplicate key"):
+        parse_override("a={x: 1, x: 2}")  # a duplicate key, refused as in a file
 
 
 def test_overrides_reach_the_scenario_and_bad_ones_name_the_field():

@@ -25,7 +25,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import yaml
 from scipy import stats
 
 from resilient_tracking import scenarios
@@ -51,6 +50,7 @@ from resilient_tracking.viz.sweeps import (
     plot_policy_boxes,
     plot_snapshots,
 )
+from resilient_tracking.yaml_io import YamlInputError, parse_yaml
 
 #: Metrics of the summary table: column of the per-run summary, label, whether lower is better.
 METRICS: tuple[tuple[str, str, bool], ...] = (
@@ -147,14 +147,15 @@ def describe_seeds(seeds: Sequence[int]) -> str:
 
 
 def parse_override(text: str) -> tuple[str, object]:
-    """``dotted.path=value`` → (path, value); the value is read as YAML (``0.05``, ``[1, 2]``)."""
+    """``dotted.path=value`` → (path, value); the value is read as YAML (``0.05``, ``[1, 2]``)
+    by the rules scenario files are read with (``1e-3`` is a number, as in YAML 1.2)."""
     path, sep, value = text.partition("=")
     if not sep or not path.strip():
         raise ValueError(f"--set: expected dotted.path=value (got {text!r})")
     try:
-        return path.strip(), yaml.safe_load(value)
-    except yaml.YAMLError as err:
-        raise ValueError(f"--set {path}: value is not valid YAML ({err})") from None
+        return path.strip(), parse_yaml(value)
+    except YamlInputError as err:
+        raise ValueError(f"--set {path.strip()}: {err.reason}") from None
 
 
 def make_study(
