@@ -75,6 +75,12 @@ def pair_distances(x: np.ndarray, others: np.ndarray) -> np.ndarray:
     return np.asarray(np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2 + PLAN_EPS**2))
 
 
+def largest_variance(gaussians: np.ndarray) -> np.ndarray:
+    """``λ_max`` of each zone row's covariance (entries xx, xy, yy in columns 2–4)."""
+    xx, xy, yy = gaussians[:, 2], gaussians[:, 3], gaussians[:, 4]
+    return np.asarray(0.5 * (xx + yy) + np.hypot(0.5 * (xx - yy), xy))
+
+
 def keep_out_lower_bound(
     x: np.ndarray, reach: np.ndarray, gaussians: np.ndarray, offset: np.ndarray, beta: np.ndarray
 ) -> np.ndarray:
@@ -87,7 +93,7 @@ def keep_out_lower_bound(
     """
     z = gaussians
     gap = np.hypot(z[:, 0] - x[:, :1], z[:, 1] - x[:, 1:]) - reach[:, None]
-    top = 0.5 * (z[:, 2] + z[:, 4]) + np.hypot(0.5 * (z[:, 2] - z[:, 4]), z[:, 3])
+    top = largest_variance(z)
     spread = np.sqrt(2 * np.maximum(top, 0.0) + SPREAD_EPS)
     return np.sqrt(np.maximum(gap, 0.0) ** 2 + PLAN_EPS**2) - offset - np.maximum(beta, 0) * spread
 

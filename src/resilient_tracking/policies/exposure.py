@@ -26,7 +26,7 @@ import numpy as np
 
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import SensingRow
-from resilient_tracking.planning.margins import keep_out_values
+from resilient_tracking.planning.margins import keep_out_values, largest_variance
 
 
 class ExposureLedger:
@@ -57,14 +57,8 @@ class ExposureLedger:
         if self.horizon <= 0 or not len(keys) or not len(positions):
             return
         gaussians = rows[:, SensingRow.GAUSSIAN]
-        band = np.sqrt(2.0 * np.maximum(_largest_variance(gaussians), 0.0))
+        band = np.sqrt(2.0 * np.maximum(largest_variance(gaussians), 0.0))
         for x in np.asarray(positions, dtype=float).reshape(-1, 2):
             h = keep_out_values(x, gaussians, rows[:, SensingRow.R_SAFE], rows[:, SensingRow.BETA])
             for r in np.flatnonzero(h <= band):
                 self.steps[keys[r]] = self.steps.get(keys[r], 0) + 1
-
-
-def _largest_variance(gaussians: np.ndarray) -> np.ndarray:
-    """``λ_max`` of each row's covariance (entries xx, xy, yy in columns 2–4)."""
-    xx, xy, yy = gaussians[:, 2], gaussians[:, 3], gaussians[:, 4]
-    return np.asarray(0.5 * (xx + yy) + np.hypot(0.5 * (xx - yy), xy))
