@@ -19,6 +19,9 @@ from resilient_tracking.runs.folders import folder_name, holds_working_folder
 from resilient_tracking.scenario import Scenario, ScenarioError
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from resilient_tracking.experiments.catalog import Task
     from resilient_tracking.experiments.sweep import SweepError
 
 #: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
@@ -237,7 +240,6 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     into ``--out`` and write ``report.md``, printing how many of the claims hold."""
     from resilient_tracking.experiments.catalog import select, tasks
     from resilient_tracking.experiments.report import files_of_report, write_report
-    from resilient_tracking.experiments.sweep import SweepError, run_sweep
 
     if _out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
         return 1
@@ -252,19 +254,11 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     except ScenarioError as err:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return 1
-    if _unusable_name("--out", args.out):
-        return 1
-    out = Path(args.out)
-    if _not_a_folder(out) or _holds_foreign_report_files(out, files_of_report(experiments)):
-        return 1
     everything = [t for ts in plan.values() for t in ts]
-    try:
-        with tqdm(total=len(everything), desc="reproduce", unit="run", disable=args.quiet) as bar:
-            ran = run_sweep(
-                everything, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
-            )
-    except SweepError as err:
-        return _failed_runs(err, out)
+    swept = _swept(everything, files_of_report(experiments), args, "reproduce")
+    if isinstance(swept, int):
+        return swept
+    out, ran = swept
     command = " ".join(["rtrack reproduce", *args.argv])
     report = write_report(experiments, plan, out, command, jobs=args.jobs)
     print(
@@ -275,6 +269,28 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         if line.startswith("**") and ("claims hold" in line or "targets hold" in line):
             print(shown(line.replace("**", "")))
     return 0
+
+
+def _swept(
+    tasks: Sequence[Task], wanted: ReportFiles, args: argparse.Namespace, desc: str
+) -> tuple[Path, list[Task]] | int:
+    """Check ``--out`` (a usable folder holding no file rtrack did not write), then run the sweep
+    with a progress bar: the folder and the runs done, or the exit code to return."""
+    from resilient_tracking.experiments.sweep import SweepError, run_sweep
+
+    if _unusable_name("--out", args.out):
+        return 1
+    out = Path(args.out)
+    if _not_a_folder(out) or _holds_foreign_report_files(out, wanted):
+        return 1
+    try:
+        with tqdm(total=len(tasks), desc=desc, unit="run", disable=args.quiet) as bar:
+            ran = run_sweep(
+                tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
+            )
+    except SweepError as err:
+        return _failed_runs(err, out)
+    return out, ran
 
 
 def _failed_runs(err: SweepError, out: Path) -> int:
@@ -320,7 +336,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
         parse_seeds,
         write_compare_report,
     )
-    from resilient_tracking.experiments.sweep import SweepError, run_sweep
 
     if _out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
@@ -337,18 +352,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     except (ScenarioError, ValueError) as err:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
         return 1
-    if _unusable_name("--out", args.out):
-        return 1
-    out = Path(args.out)
-    if _not_a_folder(out) or _holds_foreign_report_files(out, files_of_report(study)):
-        return 1
-    try:
-        with tqdm(total=len(tasks), desc="compare", unit="run", disable=args.quiet) as bar:
-            ran = run_sweep(
-                tasks, out, jobs=args.jobs, dask=args.dask, on_done=lambda t, r: _step(bar, 1)
-            )
-    except SweepError as err:
-        return _failed_runs(err, out)
+    swept = _swept(tasks, files_of_report(study), args, "compare")
+    if isinstance(swept, int):
+        return swept
+    out, ran = swept
     given = list(sys.argv[1:] if args.argv is None else args.argv)
     command = " ".join(["rtrack compare", *given[given.index("compare") + 1 :]])
     report = write_compare_report(study, tasks, out, command)
