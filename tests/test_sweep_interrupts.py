@@ -168,3 +168,25 @@ def test_ctrl_c_at_varied_moments_exits_130_and_stores_only_uninterrupted_runs(t
                 )
             compared += 1
     assert compared > 0  # some tries stored runs before the signal
+
+
+def test_ctrl_c_after_the_command_finished_does_not_end_the_process_by_the_signal(tmp_path):
+    # the interpreter's shutdown resets Python's SIGINT handler to the default action; a Ctrl-C
+    # then would kill the finished command with no message (exit -2 instead of its own code)
+    script = (
+        "import os, signal, sys\n"
+        "from resilient_tracking.cli import main\n"
+        "code = main()\n"
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "sys.exit(code)\n"
+    )
+    scenario = ROOT / "src" / "resilient_tracking" / "scenarios" / "sensing-temp.yaml"
+    proc = subprocess.run(
+        [sys.executable, "-c", script, "validate", str(scenario)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "KeyboardInterrupt" not in proc.stderr

@@ -777,7 +777,10 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         with interrupts.catching():
-            return int(args.func(args))
+            code = int(args.func(args))
+        if argv is None:  # the command itself: its shutdown must not end by a late Ctrl-C
+            interrupts.ignore_while_exiting()
+        return code
     except (KeyboardInterrupt, interrupts.Terminated) as stop:
         # compile jobs are stopped at exit (planning.compile_jobs); staging folders are removed
         interrupts.ignore_more()

@@ -82,6 +82,13 @@ def ignore_more() -> None:
         signal.signal(sig, signal.SIG_IGN)
 
 
+def ignore_while_exiting() -> None:
+    """Ignore SIGINT once a command has finished: the interpreter's shutdown resets Python's own
+    handler to the default action, so a Ctrl-C in that moment would end the process by the
+    signal (with no message) although everything was done and stored."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @contextlib.contextmanager
 def catching() -> Iterator[None]:
     """Install the handlers; restore the previous ones afterwards unless a signal came."""
