@@ -45,3 +45,10 @@ def test_animate_names_a_broken_manifest(tmp_path, capsys):
     (run / "manifest.json").write_text('{"seed": 4\x01}')
     assert main(["animate", str(run), "-q"]) == 1
     assert f"error: {run / 'manifest.json'}: not valid JSON" in capsys.readouterr().err
+
+
+def test_animate_on_a_missing_run_folder_prints_its_error_and_no_progress_bar(tmp_path, capsys):
+    missing = tmp_path / "no-such-run"
+    assert main(["animate", str(missing)]) == 1
+    err = capsys.readouterr().err
+    assert err.strip() == f"error: run folder {missing} does not exist"

@@ -377,20 +377,24 @@ def cmd_animate(args: argparse.Namespace) -> int:
         print(f"error: --out: {shown(args.out)} is a folder; give a GIF file name", file=sys.stderr)
         return 1
     passes = 2 if ffmpeg_path() else 1  # GIF, then MP4
+    bars: list[tqdm] = []  # drawn at the first frame, so a run that cannot be read shows none
+
+    def progress(n: int) -> None:
+        if not bars:
+            total = max(2, args.frames) * passes
+            bars.append(tqdm(total=total, desc="animate", unit="frame", disable=args.quiet))
+        bars[0].update(n)
+
     try:
-        with tqdm(
-            total=max(2, args.frames) * passes, desc="animate", unit="frame", disable=args.quiet
-        ) as bar:
-            written = animate_run(
-                args.run_dir,
-                args.out,
-                frames=args.frames,
-                fps=args.fps,
-                progress=lambda n: bar.update(n),
-            )
+        written = animate_run(
+            args.run_dir, args.out, frames=args.frames, fps=args.fps, progress=progress
+        )
     except (OSError, ValueError) as err:  # each names its file
         print(f"error: {shown(err)}", file=sys.stderr)
         return 1
+    finally:
+        for bar in bars:
+            bar.close()
     print("wrote " + ", ".join(shown(p) for p in written))
     if len(written) == 1:
         print("no MP4: no ffmpeg found; pip install 'resilient-tracking[video]' for one")
