@@ -78,8 +78,9 @@ def _stonesoup_cycle(
     robots: np.ndarray,
     z: np.ndarray,
     analytic_jacobian: bool,
-) -> tuple[ModeStates, ModeStates]:
-    """One IMM cycle per target with Stone Soup's parts: (predicted modes, updated modes)."""
+) -> tuple[ModeStates, ModeStates, np.ndarray]:
+    """One IMM cycle per target with Stone Soup's parts: predicted modes, updated modes and the
+    ``(N, M)`` log-likelihoods of the measurements under each mode (0 where none)."""
     from stonesoup.functions import gm_reduce_single
     from stonesoup.models.measurement.nonlinear import (
         CartesianToBearingRange,
@@ -121,6 +122,7 @@ def _stonesoup_cycle(
     n, m = modes.probabilities.shape
     pred_out = ModeStates(np.zeros((n, m)), np.zeros((n, m, 4)), np.zeros((n, m, 4, 4)))
     upd_out = ModeStates(np.zeros((n, m)), np.zeros((n, m, 4)), np.zeros((n, m, 4, 4)))
+    all_logliks = np.zeros((n, m))
     for j in range(n):
         mu = modes.probabilities[j]
         ss_means = StateVectors(modes.means[j][:, PERM].T)
@@ -160,12 +162,13 @@ def _stonesoup_cycle(
             logliks[i] = multivariate_normal.logpdf(innovation, cov=np.asarray(predicted_z.covar))
             updated.append(updater.update(SingleHypothesis(pred, detection)))
         pred_out.probabilities[j] = c
+        all_logliks[j] = logliks
         w = c * np.exp(logliks - logliks.max())
         upd_out.probabilities[j] = w / w.sum()
         for i, state in enumerate(updated):
             upd_out.means[j, i] = np.asarray(state.state_vector, float).ravel()[PERM]
             upd_out.covs[j, i] = np.asarray(state.covar)[np.ix_(PERM, PERM)]
-    return pred_out, upd_out
+    return pred_out, upd_out, all_logliks
 
 
 def _stonesoup_combined(modes: ModeStates) -> tuple[np.ndarray, np.ndarray]:
@@ -214,13 +217,14 @@ def test_imm_cycle_matches_one_built_from_stone_soup(case, seed: int) -> None:
         z[1, 2] = np.nan  # robot 1 missed target 2
         z[:, 3] = np.nan  # nobody saw target 3: its mode probabilities are the predicted ones
         pred = imm.predict(est)
-        upd = imm.update(pred, robots, z)
+        upd, loglik = imm.update_with_likelihood(pred, robots, z)
         assert est.modes is not None and pred.modes is not None and upd.modes is not None
-        ref_pred, ref_upd = _stonesoup_cycle(
+        ref_pred, ref_upd, ref_loglik = _stonesoup_cycle(
             est.modes, accel_stds, transition, robots, z, analytic_jacobian=True
         )
         _assert_modes_close(pred.modes, ref_pred, 1e-9)
         _assert_modes_close(upd.modes, ref_upd, 1e-9)
+        np.testing.assert_allclose(loglik, ref_loglik, rtol=1e-9, atol=1e-9)
         for ours, modes in ((pred, ref_pred), (upd, ref_upd)):
             mean, cov = _stonesoup_combined(modes)
             np.testing.assert_allclose(ours.mean, mean, rtol=1e-9, atol=1e-9)
@@ -242,7 +246,7 @@ def test_imm_cycle_matches_stone_soup_with_its_own_finite_difference_jacobian() 
     z = SENSOR.sample(robots[:, None, :], est.mean[None, :, :2], rng)
     upd = _imm(accel_stds, transition).update(_imm(accel_stds, transition).predict(est), robots, z)
     assert est.modes is not None and upd.modes is not None
-    _, ref = _stonesoup_cycle(est.modes, accel_stds, transition, robots, z, False)
+    _, ref, _ = _stonesoup_cycle(est.modes, accel_stds, transition, robots, z, False)
     _assert_modes_close(upd.modes, ref, 1e-6)
 
 
@@ -257,7 +261,7 @@ def test_bearing_innovations_wrap_like_stone_soup() -> None:
     z = np.array([[[4.0, -np.pi + 2e-3]]])  # the other side of the cut from the +π prediction
     imm = _imm(accel_stds, transition)
     upd = imm.update(imm.predict(_estimate(modes)), robots, z)
-    _, ref = _stonesoup_cycle(modes, accel_stds, transition, robots, z, True)
+    _, ref, _ = _stonesoup_cycle(modes, accel_stds, transition, robots, z, True)
     assert upd.modes is not None
     _assert_modes_close(upd.modes, ref, 1e-9)
 
