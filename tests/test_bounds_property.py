@@ -143,7 +143,8 @@ def test_the_edges_cover_the_written_bounds():
 
 def _every_field_base() -> dict[str, Any]:
     """combined-temp with every kind of number the schema has: each target motion, both hazard
-    models, a maximum range, a comm range and every built-in policy's parameters written out."""
+    models, a maximum range, a comm range, the IMM estimator's parameters and every built-in
+    policy's parameters written out."""
     data = parse_scenario(yaml.safe_load((SCENARIOS / "combined-temp.yaml").read_text()))
     data = data.model_dump(mode="json")
     data["targets"][1]["motion"] = {"type": "circle", "center": [-2.0, 0.0], "angular_speed": 0.1}
@@ -154,6 +155,7 @@ def _every_field_base() -> dict[str, Any]:
     data["zones"][-1]["hazard"] = {"model": "disk", "f_act": 1.0, "p_hit": 0.5}
     data["sensor"]["max_range"] = 5.0
     data["comm_range"] = 6.0
+    data["estimator"] |= {"type": "imm", "manoeuvre_accel_std": 1.0, "switch_probability": 0.05}
     data["policy"] = {"name": "failure_aware"} | {
         name: POLICIES.get(name).Params().model_dump(mode="json")
         for name in POLICIES.builtin_names()

@@ -1,5 +1,5 @@
-"""From a scenario to the objects that run it: the team's own description, its planner, its
-policy and the zones it knows from the start.
+"""From a scenario to the objects that run it: the team's own description, its estimator, its
+planner, its policy and the zones it knows from the start.
 
 The scenario schema (:mod:`resilient_tracking.scenario`) only validates; the components
 (:mod:`~resilient_tracking.policies`, :mod:`~resilient_tracking.planning`, the sensor models)
@@ -12,14 +12,17 @@ from typing import Any
 
 import numpy as np
 
+from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.estimator import Estimator
+from resilient_tracking.belief.imm import InteractingMultipleModel
 from resilient_tracking.belief.knowledge import ZoneEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.observation import ZoneClue
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import POLICIES, Policy
 from resilient_tracking.rng import stream
-from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario import ImmEstimatorSpec, Scenario
 from resilient_tracking.team_config import TeamConfig
 
 
@@ -34,6 +37,22 @@ def team_config(scenario: Scenario) -> TeamConfig:
         target_model=NearlyConstantVelocity(scenario.dt, scenario.estimator.accel_std),
         comm_range=scenario.comm_range,
     )
+
+
+def make_estimator(scenario: Scenario, config: TeamConfig | None = None) -> Estimator:
+    """The estimator the scenario's ``estimator`` section selects, with the team's sensor: the
+    paper's EKF of the team's target model, or the IMM of :mod:`~.belief.imm`."""
+    config = config or team_config(scenario)
+    spec = scenario.estimator
+    if isinstance(spec, ImmEstimatorSpec):
+        return InteractingMultipleModel.quiet_and_manoeuvre(
+            scenario.dt,
+            spec.accel_std,
+            spec.manoeuvre_accel_std,
+            spec.switch_probability,
+            config.sensor,
+        )
+    return ExtendedKalmanFilter(config.target_model, config.sensor)
 
 
 def make_policy(

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.build import make_policy, team_config
+from resilient_tracking.build import make_estimator, make_policy, team_config
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
 from resilient_tracking.policies import Policy
 from resilient_tracking.policies.checks import decision_problems
@@ -232,6 +232,7 @@ def _drive(
         TargetEstimate.initial(
             means + noise, prior.initial_position_std, prior.initial_velocity_std
         ),
+        make_estimator(scenario, config),
     )
     positions = np.array([r.start for r in scenario.robots], dtype=float)
     out: list[tuple[str, np.ndarray | None]] = []

@@ -30,7 +30,13 @@ from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.build import make_policy, prior_estimate, team_config, zone_map
+from resilient_tracking.build import (
+    make_estimator,
+    make_policy,
+    prior_estimate,
+    team_config,
+    zone_map,
+)
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook, LeaguePlanner
@@ -112,13 +118,15 @@ class Team:
     ) -> Team:
         """A team for a scenario's robots and sensors, starting from the targets' means, an
         ``(N, 4)`` array ``[px, py, vx, vy]`` or ``(N, 2)`` positions (lists accepted), with the
-        scenario's declared initial uncertainty and the zones it marks ``known``."""
+        scenario's declared initial uncertainty and estimator and the zones it marks
+        ``known``."""
         means = _initial_means(initial_means, len(scenario.targets))
         spec = scenario.estimator
         config = team_config(scenario)
         team = cls(
             make_policy(policy or scenario.policy.name, scenario, config),
             TargetEstimate.initial(means, spec.initial_position_std, spec.initial_velocity_std),
+            make_estimator(scenario, config),
         )
         team.belief.map_zones(zone_map(scenario))
         return team
@@ -236,6 +244,7 @@ def build_team(
     team = Team(
         make_policy(policy_name, scenario, config, planner),
         prior_estimate(scenario, initial_targets, seed),
+        make_estimator(scenario, config),
     )
     team.belief.map_zones(zone_map(scenario))
     return team

@@ -93,6 +93,29 @@ class ExtendedKalmanFilter:
         res = self.update_detailed(est, robot_positions, measurements)
         return res.estimate, res.nis
 
+    def update_with_likelihood(
+        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+    ) -> tuple[TargetEstimate, FloatArray]:
+        """Like :meth:`update`, also returning per target the log-likelihood
+        ``log N(z̃; 0, S)`` of its stacked measurements against the prior (0 where none), what a
+        multiple-model filter weighs its modes by.
+
+        ``z̃ᵀ S⁻¹ z̃`` is the stacked NIS (Woodbury, as in :meth:`update_detailed`) and
+        ``log det S = Σ_k log det R_k + log det(I + J P_pp)`` (matrix determinant lemma), with
+        ``J`` the position information of the update.
+        """
+        estimate, lin = self._linearised(est, robot_positions, measurements)
+        hjac, var, valid, innov, rinv, b = lin
+        info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
+        _, logdet_m = np.linalg.slogdet(_EYE2 + info @ est.cov[:, :2, :2])
+        logdet_r = np.log(np.where(valid[..., None], var, 1.0)).sum(axis=(0, 2))
+        quad = np.einsum("kna,kna,kna->n", innov, rinv, innov) - np.einsum(
+            "ni,nij,nj->n", b, estimate.cov[:, :2, :2], b
+        )
+        dof = self.sensor.DIM * valid.sum(axis=0)
+        loglik = -0.5 * (quad + logdet_r + logdet_m + dof * np.log(2.0 * np.pi))
+        return estimate, np.where(dof > 0, loglik, 0.0)
+
     def _linearised(
         self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
     ) -> tuple[TargetEstimate, _Linearisation]:

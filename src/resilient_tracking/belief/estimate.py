@@ -1,7 +1,9 @@
 """Per-target Gaussian estimates held by a league (docs/model.md §4).
 
 Targets are estimated independently, so the joint covariance is block diagonal and stored as one
-4×4 block per target; state per target ``[px, py, vx, vy]``.
+4×4 block per target; state per target ``[px, py, vx, vy]``. A multiple-model estimator (the IMM
+of :mod:`~resilient_tracking.belief.imm`) also keeps each target's per-mode states in ``modes``;
+``mean`` and ``cov`` are then their moment match, what the rest of the team reads.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from resilient_tracking.belief.modes import ModeStates
+
 FloatArray = NDArray[np.float64]
 
 STATE_DIM = 4
@@ -18,10 +22,12 @@ STATE_DIM = 4
 
 @dataclass
 class TargetEstimate:
-    """Means ``(N, 4)`` and covariances ``(N, 4, 4)`` of ``N`` independent targets."""
+    """Means ``(N, 4)`` and covariances ``(N, 4, 4)`` of ``N`` independent targets; ``modes``:
+    the per-mode states behind them of a multiple-model estimator (``None`` for a single model)."""
 
     mean: FloatArray
     cov: FloatArray
+    modes: ModeStates | None = None
 
     def __post_init__(self) -> None:
         self.mean = np.asarray(self.mean, dtype=float)
@@ -33,10 +39,16 @@ class TargetEstimate:
             raise ValueError(
                 f"TargetEstimate.cov must have shape ({n}, 4, 4), got {self.cov.shape}"
             )
+        if self.modes is not None and self.modes.probabilities.shape[0] != n:
+            raise ValueError(
+                f"TargetEstimate.modes must describe {n} targets, "
+                f"got {self.modes.probabilities.shape[0]}"
+            )
 
     def copy(self) -> TargetEstimate:
         """A deep copy (arrays are not shared)."""
-        return TargetEstimate(self.mean.copy(), self.cov.copy())
+        modes = None if self.modes is None else self.modes.copy()
+        return TargetEstimate(self.mean.copy(), self.cov.copy(), modes)
 
     @property
     def n_targets(self) -> int:

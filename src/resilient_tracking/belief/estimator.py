@@ -2,8 +2,10 @@
 
 The belief keeps one :class:`~resilient_tracking.belief.estimate.TargetEstimate` per league and
 hands it to an estimator to predict it one step ahead and to update it with the league's
-measurements. :class:`~resilient_tracking.belief.ekf.ExtendedKalmanFilter` is the paper's; any
-object with these two verbs (for example a filter with another motion model) can replace it.
+measurements. :class:`~resilient_tracking.belief.ekf.ExtendedKalmanFilter` is the paper's;
+:class:`~resilient_tracking.belief.imm.InteractingMultipleModel` (scenario ``estimator: {type:
+imm}``) is the other built-in; any object with these two verbs (for example a filter with
+another motion model) can replace it.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 ``P⁻¹ = λ P₁⁻¹ + (1 − λ) P₂⁻¹``, ``ŷ = P (λ P₁⁻¹ ŷ₁ + (1 − λ) P₂⁻¹ ŷ₂)``, with ``λ ∈ [0, 1]``
 minimising ``tr P`` or ``det P``. CI is consistent whatever the (unknown) correlation between the
 two estimates, which is why it is used when a robot that tracked alone rejoins its league.
+Estimates with motion-mode states (the IMM's) are fused on their combined Gaussians; the mode
+states follow (:func:`fuse_estimates`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.modes import ModeStates, pooled
 
 FloatArray = NDArray[np.float64]
 Criterion = Literal["trace", "det"]
@@ -88,7 +91,25 @@ def fuse_estimates(
         mean[j], cov[j], lambdas[j] = covariance_intersection(
             a.mean[j], a.cov[j], b.mean[j], b.cov[j], criterion
         )
-    return TargetEstimate(mean, cov), lambdas
+    modes = _fused_modes(a, b, mean, cov, lambdas)
+    return TargetEstimate(mean, cov, modes), lambdas
+
+
+def _fused_modes(
+    a: TargetEstimate, b: TargetEstimate, mean: FloatArray, cov: FloatArray, lambdas: FloatArray
+) -> ModeStates | None:
+    """The mode states of a CI fusion (docs/model.md §4): the linear pool of both estimates'
+    modes with the CI weights, moved so that its moment match is the CI result. An estimate
+    without modes counts as every mode at its Gaussian, with the other's probabilities."""
+    if a.modes is not None and b.modes is not None:
+        modes_a, modes_b = a.modes, b.modes
+    elif a.modes is not None:
+        modes_a, modes_b = a.modes, ModeStates.seated(b.mean, b.cov, a.modes.probabilities)
+    elif b.modes is not None:
+        modes_a, modes_b = ModeStates.seated(a.mean, a.cov, b.modes.probabilities), b.modes
+    else:
+        return None
+    return pooled(modes_a, modes_b, lambdas).reseated(mean, cov)
 
 
 def _inv_spd(p: FloatArray) -> FloatArray:

@@ -6,12 +6,14 @@ Each tick (docs/model.md §3–4):
    of a hazard map given before the first tick (:meth:`TeamBelief.map_zones`);
 2. leagues are the connected components of the observed link graph;
 3. league estimates follow the robots: a league that gathers robots from several previous
-   leagues fuses their estimates by covariance intersection, a league that split keeps a copy;
+   leagues fuses their estimates by covariance intersection, a league that split keeps a copy
+   (motion-mode states included, :func:`~resilient_tracking.belief.fusion.fuse_estimates`);
 4. each league's estimate is predicted to now (the prediction the policy planned with at the
    last tick, when the league is unchanged: one prediction per step) and updated with its
    sensing members' measurements by the team's estimator (the EKF by default);
 5. every league covariance is checked (symmetric positive definite) and repaired with a
-   ``covariance_repaired`` event if it drifted (:mod:`resilient_tracking.belief.health`);
+   ``covariance_repaired`` event if it drifted (:mod:`resilient_tracking.belief.health`; the
+   motion modes of a repaired target, if the estimator keeps any, restart at its repair);
 6. knowledge is merged within each league;
 7. if the policy needs it (:class:`~resilient_tracking.belief.needs.BeliefNeeds`), robots
    with links watch silent ones and learn the comm zones they reveal
@@ -32,6 +34,7 @@ from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.fusion import fuse_estimates
 from resilient_tracking.belief.health import repair_covariances
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.belief.modes import ModeStates
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.silent_robots import SilentRobotWatch
 from resilient_tracking.events import Event
@@ -124,7 +127,9 @@ class TeamBelief:
             cov, repairs = repair_covariances(estimate.cov, fallback=self._prior_block)
             if not repairs:
                 continue
-            self.estimates[k] = TargetEstimate(estimate.mean, cov)
+            self.estimates[k] = TargetEstimate(
+                estimate.mean, cov, _reseated_modes(estimate, cov, [r.index for r in repairs])
+            )
             for r in repairs:
                 log.warning(
                     "league %s, step %d: repaired covariance, %s",
@@ -212,3 +217,16 @@ class TeamBelief:
             ),
         )
         return self.estimates[best]
+
+
+def _reseated_modes(
+    estimate: TargetEstimate, cov: np.ndarray, repaired: list[int]
+) -> ModeStates | None:
+    """The estimate's mode states with every mode of a repaired target at its repaired
+    Gaussian (mode probabilities kept); ``None`` for a single-model estimate."""
+    if estimate.modes is None:
+        return None
+    modes = estimate.modes.copy()
+    modes.means[repaired] = estimate.mean[repaired, None, :]
+    modes.covs[repaired] = cov[repaired, None, :, :]
+    return modes

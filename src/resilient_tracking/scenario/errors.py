@@ -29,8 +29,12 @@ def short_repr(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-#: Discriminator key of the tagged union held by a field (a list's items for ``zones``).
-_UNION_TAG = {"zones": "kind"}
+#: Discriminator key of the tagged union held by a field (a list's items for ``zones``), and
+#: the variant a mapping without that key is.
+_UNION_TAG: dict[str, tuple[str, str | None]] = {
+    "zones": ("kind", None),
+    "estimator": ("type", "ekf"),
+}
 
 
 def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
@@ -43,7 +47,7 @@ def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
     node, owner = data, None
     for part in loc:
         tag = _UNION_TAG.get(owner) if isinstance(owner, str) and isinstance(node, dict) else None
-        if tag is not None and node.get(tag) == part:
+        if tag is not None and node.get(tag[0], tag[1]) == part:
             owner = None
             continue
         parts.append(str(part))

@@ -28,6 +28,7 @@ from resilient_tracking.scenario.paths import set_paths
 from resilient_tracking.scenario.policies import PolicySpec
 from resilient_tracking.scenario.world_specs import (
     Circle,
+    Estimator,
     EstimatorSpec,
     RobotSpec,
     Sensor,
@@ -66,8 +67,10 @@ class Scenario(Strict):
     sensor: Sensor = Field(
         RangeBearingSpec(), description="Sensor of every robot, selected by its type."
     )
-    estimator: EstimatorSpec = Field(
-        EstimatorSpec(), description="The robots' target model and initial uncertainty."
+    estimator: Estimator = Field(
+        EstimatorSpec(),
+        description="The robots' estimator, selected by its type: target model and initial "
+        "uncertainty.",
     )
     robots: list[RobotSpec] = Field(min_length=1, max_length=MAX_ROBOTS, description="The team.")
     targets: list[TargetSpec] = Field(
