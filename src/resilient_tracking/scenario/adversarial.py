@@ -75,7 +75,6 @@ class Lure(MotionSpec):
     )
     zone: str = Field(
         ...,
-        min_length=1,
         description="The name of the danger zone the target leads to (a zones[].name).",
     )
     speed: float = Field(

@@ -31,6 +31,8 @@ log = logging.getLogger(__name__)
 
 #: A trip's target is reached within this distance (m): the lingering starts.
 ARRIVED = 0.05
+#: Slack (s) of the time comparisons: the clock adds ``dt`` each step, with rounding.
+TICK = 1e-9
 
 
 @MOTIONS.register("lure")
@@ -67,19 +69,21 @@ class LureMotion(TargetMotion):
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Follow the base motion, or go to the zone, linger, or steer back (module
         docstring)."""
+        shadow = self.base.position.copy()  # where the base motion is at the step's start
         self.base.step(dt, rng)
+        shadow_velocity = (self.base.position - shadow) / dt
         now, self.time = self.time, self.time + dt
-        if self.mode == "base" and now >= self.due:
+        if self.mode == "base" and now + TICK >= self.due:
             self._maybe_set_off()
         if self.mode == "base":
             self.position, self.velocity = self.base.position.copy(), self.base.velocity.copy()
             return
         spec, around = self.spec, self._around
         assert around is not None and self.goal is not None  # a trip starts only with both
-        if self.mode == "linger" and now >= self.linger_until:
+        if self.mode == "linger" and now + TICK >= self.linger_until:
             self.mode = "return"
         if self.mode == "return":
-            wanted = approach(self.position, self.base.position, self.base.velocity, spec.speed)
+            wanted = approach(self.position, shadow, shadow_velocity, spec.speed)
         else:
             wanted = approach(self.position, self.goal, np.zeros(2), spec.speed)
         velocity = turn_toward(self.velocity, wanted, spec.speed, spec.max_accel, dt)
@@ -92,7 +96,7 @@ class LureMotion(TargetMotion):
             self.position,
             self.velocity,
             self.base.position,
-            self.base.velocity,
+            shadow_velocity,
             spec.max_accel,
             dt,
         ):
@@ -126,7 +130,7 @@ class LureMotion(TargetMotion):
 
     def _next_due(self, period: float) -> float:
         """The first time ``after + k · period`` later than now."""
-        ratio = (self.time - self.spec.after) / period
+        ratio = (self.time + TICK - self.spec.after) / period
         if not math.isfinite(ratio):  # a period too short to count in: due again at once
             return self.time
         return self.spec.after + max(math.floor(ratio) + 1, 1) * period
