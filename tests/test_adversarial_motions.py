@@ -404,3 +404,52 @@ def test_a_lure_draws_the_failure_aware_team_into_its_zone(name):
     lured = sum(attacks(data, s) for s in seeds)
     unlured = sum(attacks(plain, s) for s in seeds)
     assert lured >= len(seeds) - 1 > unlured  # the base lanes keep clear of the zone
+
+
+# ---------------------------------------------------------------------------- the generator
+
+
+def test_the_generator_wraps_some_targets_of_a_scenario_in_adversarial_motions():
+    from resilient_tracking.experiments.generator import make_adversarial, stored_suite
+    from resilient_tracking.rng import stream
+
+    kinds = set()
+    rng = stream(3, "generator_adversarial")
+    for plain in stored_suite(8):
+        data = plain.model_dump(mode="json")
+        make_adversarial(data, rng)
+        scenario = parse_scenario(data, plain.name)
+        wrapped = [t for t in scenario.targets if t.motion.type in ("evasive", "lure")]
+        assert wrapped and "Adversarial targets:" in scenario.description
+        zone_names = {z.name for z in scenario.zones}
+        for target, original in zip(scenario.targets, plain.targets, strict=True):
+            motion = target.motion
+            if motion.type in ("evasive", "lure"):
+                assert motion.base == original.motion  # the lane stays its base motion
+                assert motion.speed < min(r.u_max for r in scenario.robots)
+                kinds.add(motion.type)
+                if motion.type == "lure":
+                    assert motion.zone in zone_names
+            else:
+                assert motion == original.motion
+        assert scenario.zones == plain.zones and scenario.robots == plain.robots
+    assert kinds == {"evasive", "lure"}
+
+
+def test_an_adversarial_suite_is_the_plain_suite_with_targets_wrapped(tmp_path):
+    from resilient_tracking.cli import main
+    from resilient_tracking.experiments.generator import suite
+    from resilient_tracking.scenario import load_scenario
+
+    plain, adversarial = suite(5, 2), suite(5, 2, adversarial=True)
+    for p, a in zip(plain, adversarial, strict=True):
+        assert a.zones == p.zones and a.robots == p.robots
+        bases = [getattr(t.motion, "base", t.motion) for t in a.targets]
+        assert bases == [t.motion for t in p.targets]
+        assert any(t.motion.type in ("evasive", "lure") for t in a.targets)
+    assert (
+        main(["generate", "-n", "1", "--seed", "5", "--adversarial", "--out", str(tmp_path)]) == 0
+    )
+    written = load_scenario(tmp_path / "g00.yaml")
+    assert written.model_dump() == adversarial[0].model_dump()
+    assert "--adversarial" in (tmp_path / "g00.yaml").read_text().splitlines()[0]
