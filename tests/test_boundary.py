@@ -41,6 +41,8 @@ TRUTH_NAMES = {
     "Failure",
     "GaussianHazardModel",
     "DiskHazardModel",
+    "Surroundings",
+    "ZoneTruth",
 }
 
 
@@ -322,6 +324,7 @@ def spies(monkeypatch):
         ("sensing-perm", "failure_aware"),
         ("comm-perm", "failure_aware"),
         ("combined-temp", "vanilla"),
+        ("lure-sensing", "failure_aware"),
     ],
 )
 def test_policy_receives_no_world_object_and_no_true_center(spies, name, policy):

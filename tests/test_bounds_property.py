@@ -152,6 +152,22 @@ def _every_field_base() -> dict[str, Any]:
     data["targets"].append(
         {"start": [-2.0, 1.0], "motion": {"type": "constant_velocity", "velocity": [0.1, 0.0]}}
     )
+    straight = {"type": "constant_velocity", "velocity": [0.1, 0.0]}
+    data["targets"].append(
+        {
+            "start": [-2.0, -1.0],
+            "motion": {"type": "evasive", "base": straight, "radius": 1.0, "speed": 0.3}
+            | {"max_accel": 1.0, "wall_margin": 0.5},
+        }
+    )
+    data["targets"].append(
+        {
+            "start": [-2.5, 0.0],
+            "motion": {"type": "lure", "base": straight, "zone": data["zones"][0]["name"]}
+            | {"speed": 0.3, "linger": 2.0, "after": 0.1, "period": 3.0, "near": 2.0}
+            | {"standoff": 0.1, "max_accel": 1.0},
+        }
+    )
     data["zones"][-1]["hazard"] = {"model": "disk", "f_act": 1.0, "p_hit": 0.5}
     data["sensor"]["max_range"] = 5.0
     data["comm_range"] = 6.0

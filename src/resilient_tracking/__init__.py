@@ -61,6 +61,7 @@ _PUBLIC = {
     "HazardModel": "resilient_tracking.world.hazard_model",
     "HAZARDS": "resilient_tracking.world.hazard_model",
     "TargetMotion": "resilient_tracking.world.target_motion",
+    "Surroundings": "resilient_tracking.world.target_motion",
     "MOTIONS": "resilient_tracking.world.target_motion",
     "UnknownName": "resilient_tracking.registry",
     # running episodes
@@ -89,6 +90,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "SensorSpec",
+    "Surroundings",
     "TargetEstimate",
     "TargetMotion",
     "Team",
@@ -153,4 +155,4 @@ if TYPE_CHECKING:
     from resilient_tracking.team import Team, TeamStep
     from resilient_tracking.team_config import TeamConfig
     from resilient_tracking.world.hazard_model import HAZARDS, HazardModel
-    from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
+    from resilient_tracking.world.target_motion import MOTIONS, Surroundings, TargetMotion

@@ -426,12 +426,13 @@ def cmd_generate(args: argparse.Namespace) -> int:
         print(f"error: --out: {shown(taken[0])} exists (nothing is replaced)", file=sys.stderr)
         return 1
     seed = SUITE_SEED if args.seed is None else args.seed
-    stored = stored_suite(args.n) if seed == SUITE_SEED else []
-    scenarios = stored if len(stored) == args.n else drawn(seed, args.n)
+    stored = stored_suite(args.n) if seed == SUITE_SEED and not args.adversarial else []
+    scenarios = stored if len(stored) == args.n else drawn(seed, args.n, args.adversarial)
+    how = f"--seed {seed}" + (" --adversarial" if args.adversarial else "")
     out.mkdir(parents=True, exist_ok=True)
     with tqdm(total=args.n, desc="generate", unit="scenario", disable=args.quiet) as bar:
         for path, scenario in zip(names, scenarios, strict=True):
-            header = f"# drawn by `rtrack generate --seed {seed}` (docs/generalization.md)\n"
+            header = f"# drawn by `rtrack generate {how}` (docs/generalization.md)\n"
             data = scenario.model_dump(mode="json", exclude_defaults=True)
             write_text_atomic(path, header + yaml.safe_dump(data, sort_keys=False))
             _step(bar, 1)
@@ -738,6 +739,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--seed", type=int, default=None, help="generator seed (default: the benchmark's, 2024)"
     )
     p.add_argument("-n", type=int, default=60, help="how many scenarios (default: 60)")
+    p.add_argument(
+        "--adversarial",
+        action="store_true",
+        help="wrap some targets of each scenario in evasive or lure motions (the same "
+        "scenarios otherwise)",
+    )
     p.add_argument("--out", default="generated", help="folder (default: generated)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_generate)

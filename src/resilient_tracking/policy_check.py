@@ -47,7 +47,9 @@ log = logging.getLogger(__name__)
 
 #: Modules and class names of the simulator's truth: a policy must not use them.
 TRUTH_MODULES = ("resilient_tracking.world", "resilient_tracking.sim")
-TRUTH_NAMES = frozenset({"World", "TrueZone", "TargetTruth", "Failure"})
+TRUTH_NAMES = frozenset(
+    {"World", "TrueZone", "TargetTruth", "Failure", "Surroundings", "ZoneTruth"}
+)
 
 
 @dataclass(frozen=True)

@@ -104,9 +104,19 @@ class Registry(Generic[T]):
         return sorted(found)
 
     def builtin_names(self) -> list[str]:
-        """Names registered by this package's own modules, in registration order."""
+        """Names registered by this package's own modules, in the order of the ``builtins``
+        modules (whichever was imported first), then in registration order."""
         self._load_builtins()
-        return [n for n, cls in self._entries.items() if _is_ours(cls)]
+        ours = [n for n, cls in self._entries.items() if _is_ours(cls)]
+        return sorted(ours, key=lambda n: self._builtin_rank(self._entries[n]))
+
+    def _builtin_rank(self, cls: type) -> int:
+        """The index of the ``builtins`` module (or package) that holds ``cls``."""
+        module = cls.__module__
+        for rank, name in enumerate(self._builtins):
+            if module == name or module.startswith(name + "."):
+                return rank
+        return len(self._builtins)
 
     # ------------------------------------------------------------------ internals
 

@@ -191,13 +191,22 @@ def unit_text(field: FieldInfo) -> str:
     return str(extra.get("unit", "–")) if isinstance(extra, dict) else "–"
 
 
+def wraps_own_kind(model: type[BaseModel], field: FieldInfo) -> bool:
+    """Whether ``field`` of ``model`` holds a mapping of the model's own kind (an evasive
+    target motion's ``base``, itself any target motion): its variants are ``model``'s own."""
+    return model in _models(field.annotation)
+
+
 def sections(model: type[BaseModel] = Scenario, path: str = "") -> Iterator[Section]:
-    """Every mapping of the format, depth first, variants of a union one by one."""
+    """Every mapping of the format, depth first, variants of a union one by one (a mapping of
+    its parent's own kind is not listed again)."""
     yield Section(path, model)
     for name, field in model.model_fields.items():
         child = f"{path}.{name}" if path else name
         if get_origin(_strip(field.annotation)) is list:
             child += "[]"
+        if wraps_own_kind(model, field):
+            continue
         models = _models(field.annotation)
         for sub in models:
             if len(models) > 1:
@@ -224,8 +233,11 @@ def _table(section: Section) -> str:
         "|---|---|---|---|---|---|",
     ]
     for name, field in section.model.model_fields.items():
+        kind = type_name(field.annotation)
+        if wraps_own_kind(section.model, field):
+            kind = f"mapping (one of the `{section.path}` variants)"
         lines.append(
-            f"| `{name}` | {type_name(field.annotation)} | {unit_text(field)} "
+            f"| `{name}` | {kind} | {unit_text(field)} "
             f"| {default_text(field)} | {range_text(field)} "
             f"| {(field.description or '').replace('|', chr(92) + '|')} |"
         )

@@ -29,6 +29,14 @@ Hazard intensities are chosen from a peak attack rate per step at the zone's cen
 the range of the shipped scenarios: for a gaussian hazard the peak is
 ``κ f_act dt / (2π √det Σ)`` (paper eq. 1 at ``x = μ``), so ``κ = peak · 2π √det Σ / (f_act dt)``.
 
+**Adversarial targets** (``adversarial=True``, ``rtrack generate --adversarial``): each scenario
+is drawn as above, then some of its targets are wrapped (:data:`ADVERSARIAL_SHARE` each, at
+least one per scenario) in an ``evasive`` motion (radius 0.6–1.2 m, speed 0.25–0.45 m/s, below
+the robots' 1 m/s) or a ``lure`` into one of its zones (speed 0.25–0.4 m/s, first trip at 2–10 s,
+lingering 3–8 s, half of them again every 10–20 s), the lanes staying their base motions. These
+draws come from their own stream, ``generator_adversarial``, so an adversarial scenario is the
+plain one of the same seed and index with its targets wrapped, and the plain suite is unchanged.
+
 All randomness comes from the ``generator`` stream of :mod:`resilient_tracking.rng`, drawn in
 order, so a suite is a function of its seed (and of the planner, through the contact check)
 and ``suite(seed, n)`` is the first ``n`` scenarios of any longer suite of the same seed. The
@@ -70,6 +78,15 @@ PEAK_RANGE = (0.1, 0.2)
 SPEED_RANGE = (0.13, 0.22)
 #: A zone is placed where a target is at a time in this window (s), so the team meets it.
 MEET_WINDOW = (5.0, 20.0)
+#: Share of an adversarial scenario's targets wrapped in an evasive or lure motion.
+ADVERSARIAL_SHARE = 0.5
+#: Ranges of the adversarial motions' parameters (docstring).
+EVASIVE_RADIUS = (0.6, 1.2)
+EVASIVE_SPEED = (0.25, 0.45)
+LURE_SPEED = (0.25, 0.4)
+LURE_AFTER = (2.0, 10.0)
+LURE_LINGER = (3.0, 8.0)
+LURE_PERIOD = (10.0, 20.0)
 #: Expected attacks a zone must inflict on the zone-free vanilla team's path (module docstring):
 #: a team on that path meets the zone with probability ``1 − exp(−3)`` ≈ 95 %.
 MEET_EXPOSURE = 3.0
@@ -255,8 +272,46 @@ def team_paths(data: dict[str, Any], name: str) -> np.ndarray:
     return xy.reshape(-1, n, 2)
 
 
-def generate(rng: np.random.Generator, name: str) -> Scenario:
-    """One scenario of the family, drawn from ``rng``."""
+def _wrap(target: dict[str, Any], zones: list[dict[str, Any]], rng: np.random.Generator) -> str:
+    """Wrap ``target``'s motion in an evasive one or a lure into one of ``zones``; a few words
+    on which."""
+    base = target["motion"]
+    if rng.random() < 0.5:
+        radius = round(float(rng.uniform(*EVASIVE_RADIUS)), 3)
+        speed = round(float(rng.uniform(*EVASIVE_SPEED)), 3)
+        target["motion"] = {"type": "evasive", "base": base, "radius": radius, "speed": speed}
+        return f"evasive r={radius:g}"
+    zone = zones[int(rng.integers(len(zones)))]["name"]
+    motion: dict[str, Any] = {
+        "type": "lure",
+        "base": base,
+        "zone": zone,
+        "speed": round(float(rng.uniform(*LURE_SPEED)), 3),
+        "after": round(float(rng.uniform(*LURE_AFTER)), 1),
+        "linger": round(float(rng.uniform(*LURE_LINGER)), 1),
+    }
+    if rng.random() < 0.5:
+        motion["period"] = round(float(rng.uniform(*LURE_PERIOD)), 1)
+    target["motion"] = motion
+    return f"lure to {zone}"
+
+
+def make_adversarial(data: dict[str, Any], rng: np.random.Generator) -> None:
+    """Wrap some of the targets of a generated scenario's ``data`` (at least one), drawn from
+    ``rng``, and say so in its description."""
+    targets, zones = data["targets"], data["zones"]
+    chosen = [j for j in range(len(targets)) if rng.random() < ADVERSARIAL_SHARE]
+    if not chosen:
+        chosen = [int(rng.integers(len(targets)))]
+    words = [f"{j} {_wrap(targets[j], zones, rng)}" for j in chosen]
+    data["description"] += f" Adversarial targets: {', '.join(words)}."
+
+
+def generate(
+    rng: np.random.Generator, name: str, adversarial: np.random.Generator | None = None
+) -> Scenario:
+    """One scenario of the family, drawn from ``rng``; with ``adversarial``, some of its
+    targets then evade or lure, drawn from that generator (module docstring)."""
     n_robots = int(rng.integers(3, 9))
     n_targets = int(rng.integers(3, 9))
     targets = _targets(n_targets, rng)
@@ -283,21 +338,26 @@ def generate(rng: np.random.Generator, name: str) -> Scenario:
         f"({', '.join(z['name'] + ' ' + z['persistence'] for z in zones)})."
     )
     data["zones"] = zones
+    if adversarial is not None:
+        make_adversarial(data, adversarial)
     return parse_scenario(data, name)
 
 
-def drawn(seed: int = SUITE_SEED, n: int = 60) -> Iterator[Scenario]:
-    """The first ``n`` scenarios drawn from ``seed``, one at a time, named ``g00``, ``g01``…"""
+def drawn(seed: int = SUITE_SEED, n: int = 60, adversarial: bool = False) -> Iterator[Scenario]:
+    """The first ``n`` scenarios drawn from ``seed``, one at a time, named ``g00``, ``g01``…;
+    with ``adversarial``, with evading and luring targets (module docstring)."""
     rng = stream(seed, "generator")
+    wrapping = stream(seed, "generator_adversarial") if adversarial else None
     for i in range(n):
-        scenario = generate(rng, f"g{i:02d}")
+        scenario = generate(rng, f"g{i:02d}", wrapping)
         log.info("generated %s: %s", scenario.name, scenario.description)
         yield scenario
 
 
-def suite(seed: int = SUITE_SEED, n: int = 60) -> list[Scenario]:
-    """The first ``n`` scenarios drawn from ``seed``, named ``g00``, ``g01``…"""
-    return list(drawn(seed, n))
+def suite(seed: int = SUITE_SEED, n: int = 60, adversarial: bool = False) -> list[Scenario]:
+    """The first ``n`` scenarios drawn from ``seed``, named ``g00``, ``g01``… (with evading and
+    luring targets if ``adversarial``)."""
+    return list(drawn(seed, n, adversarial))
 
 
 def stored_suite(n: int | None = None) -> list[Scenario]:

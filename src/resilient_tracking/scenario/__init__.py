@@ -4,6 +4,7 @@ A scenario is a YAML mapping validated by pydantic models, one module per part o
 
 - :mod:`~.base`: the strict base model, bounded number types, size limits;
 - :mod:`~.world_specs`: workspace, robots, targets and their motions, sensor, estimator;
+- :mod:`~.adversarial`: target motions that react to the world (evasive, lure);
 - :mod:`~.zones`: danger zones and their hazard models;
 - :mod:`~.policies`: the ``policy`` section; the ``planner`` section is the planner's own
   :mod:`~resilient_tracking.planning.spec`;
@@ -22,6 +23,7 @@ from resilient_tracking.planning.spec import (
     PlannerSpec,
     RouteSpec,
 )
+from resilient_tracking.scenario.adversarial import Evasive, Lure
 from resilient_tracking.scenario.base import (
     MAX_COORDINATE,
     MAX_DT,
@@ -105,6 +107,8 @@ __all__ = [
     "Waypoints",
     "Circle",
     "NoisyConstantVelocity",
+    "Evasive",
+    "Lure",
     "TargetMotion",
     "TargetSpec",
     "SensorChannel",

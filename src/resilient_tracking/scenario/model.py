@@ -12,6 +12,7 @@ from pydantic import (
 
 from resilient_tracking.models.sensor import RangeBearingSpec
 from resilient_tracking.planning.spec import PlannerSpec
+from resilient_tracking.scenario.adversarial import Lure
 from resilient_tracking.scenario.base import (
     MAX_DT,
     MAX_RECORDED_ROWS,
@@ -30,6 +31,7 @@ from resilient_tracking.scenario.world_specs import (
     Circle,
     Estimator,
     EstimatorSpec,
+    MotionSpec,
     RobotSpec,
     Sensor,
     TargetSpec,
@@ -39,6 +41,40 @@ from resilient_tracking.scenario.zones import Zone
 from resilient_tracking.spec import MAX_LENGTH, MAX_SEED, MAX_SPEED
 
 # ---------------------------------------------------------------------------- scenario
+
+
+def _motion_chain(motion: MotionSpec, path: str) -> list[tuple[str, MotionSpec]]:
+    """A target's motion and the base motions it wraps (an evasive or lure target's ``base``),
+    each with its dotted path."""
+    chain = [(path, motion)]
+    base = getattr(motion, "base", None)
+    while isinstance(base, MotionSpec):
+        path += ".base"
+        chain.append((path, base))
+        base = getattr(base, "base", None)
+    return chain
+
+
+def _motion_problems(
+    motion: MotionSpec, path: str, start: tuple[float, float], zones: dict[str, int]
+) -> list[str]:
+    """What is wrong with one motion of a target starting at ``start``, given the zones by
+    name: a circle through its own centre or too fast, a lure to a zone no zone is called."""
+    if isinstance(motion, Lure) and motion.zone not in zones:
+        known = f"zones are named {', '.join(sorted(zones))}" if zones else "no zone has a name"
+        return [f"{path}.zone: names no zone of the scenario ({known}) (got {motion.zone!r})"]
+    if not isinstance(motion, Circle):
+        return []
+    radius = math.dist(motion.center, start)
+    if radius == 0:
+        return [f"{path}.center: equals the start, radius would be 0 (got {list(motion.center)})"]
+    if abs(motion.angular_speed) * radius > MAX_SPEED:
+        return [
+            f"{path}.angular_speed: the speed along the circle of radius {radius:.6g} m would "
+            f"be {abs(motion.angular_speed) * radius:.3g} m/s, above {MAX_SPEED:g} m/s "
+            f"(got {motion.angular_speed})"
+        ]
+    return []
 
 
 class Scenario(Strict):
@@ -113,24 +149,21 @@ class Scenario(Strict):
         for i, robot in enumerate(self.robots):
             if not ws.contains(robot.start):
                 out.append(f"robots.{i}.start: outside the workspace (got {list(robot.start)})")
+        named: dict[str, int] = {}
+        for k, zone in enumerate(self.zones):
+            if zone.name is None:
+                continue
+            if zone.name in named:
+                out.append(
+                    f"zones.{k}.name: already the name of zones.{named[zone.name]}; zone names "
+                    f"must be unique (got {zone.name!r})"
+                )
+            named.setdefault(zone.name, k)
         for j, target in enumerate(self.targets):
             if not ws.contains(target.start):
                 out.append(f"targets.{j}.start: outside the workspace (got {list(target.start)})")
-            motion = target.motion
-            if not isinstance(motion, Circle):
-                continue
-            radius = math.dist(motion.center, target.start)
-            if radius == 0:
-                out.append(
-                    f"targets.{j}.motion.center: equals the start, radius would be 0 "
-                    f"(got {list(motion.center)})"
-                )
-            elif abs(motion.angular_speed) * radius > MAX_SPEED:
-                out.append(
-                    f"targets.{j}.motion.angular_speed: the speed along the circle of radius "
-                    f"{radius:.6g} m would be {abs(motion.angular_speed) * radius:.3g} m/s, above "
-                    f"{MAX_SPEED:g} m/s (got {motion.angular_speed})"
-                )
+            for path, motion in _motion_chain(target.motion, f"targets.{j}.motion"):
+                out += _motion_problems(motion, path, target.start, named)
         return out
 
     @classmethod

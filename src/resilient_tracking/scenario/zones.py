@@ -109,7 +109,12 @@ class ZoneBase(Strict):
     episode (paper eq. 4), how attacks are drawn, what they do and where a temporary failure
     ends."""
 
-    name: str | None = Field(None, description="Label for plots and logs.")
+    name: str | None = Field(
+        None,
+        description=(
+            "Label for plots and logs, unique among the zones; a lure target names its zone by it."
+        ),
+    )
     mu: Vec2 = Field(
         ..., description="Prior mean μ of the zone center.", json_schema_extra={"unit": "m"}
     )

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from resilient_tracking.scenario import TargetSpec
-from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
+from resilient_tracking.world.target_motion import MOTIONS, Surroundings, TargetMotion
 
 
 class TargetTruth:
@@ -43,6 +43,15 @@ class TargetTruth:
     def state(self) -> np.ndarray:
         """``[px, py, vx, vy]``."""
         return np.concatenate([self.position, self.velocity])
+
+    @property
+    def reacts(self) -> bool:
+        """Whether the motion reacts to the world (it is handed :class:`Surroundings`)."""
+        return self.motion.reacts
+
+    def sense(self, surroundings: Surroundings) -> None:
+        """Hand a reacting motion the truth around it before the next step."""
+        self.motion.sense(surroundings)
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Advance the truth by ``dt`` seconds."""

@@ -20,6 +20,7 @@ from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.world.links import jammed_by, link_matrix
+from resilient_tracking.world.target_motion import Surroundings, ZoneTruth
 from resilient_tracking.world.targets import TargetTruth
 from resilient_tracking.world.zones import TrueZone
 
@@ -34,6 +35,19 @@ class Failure:
     zone_id: int
     since_step: int
     cause: str = "hazard"  # "hazard" | "jamming"
+
+
+def zone_truth(zone: TrueZone) -> ZoneTruth:
+    """What a reacting target motion sees of a zone: its truth (and its hazard disk's radius,
+    a sensing zone's ``r`` or a comm zone's ``m_recover · √λmax(Σ)``)."""
+    if zone.kind == "sensing":
+        radius = float(zone.size)
+    else:
+        radius = float(zone.spec.m_recover * np.sqrt(np.linalg.eigvalsh(zone.sigma).max()))
+    center, mu, sigma = (np.array(a, dtype=float) for a in (zone.center, zone.mu, zone.sigma))
+    for a in (center, mu, sigma):
+        a.setflags(write=False)  # seen by every reacting target: nobody moves the zone
+    return ZoneTruth(zone.spec.name, zone.kind, center, mu, sigma, float(zone.size), radius)
 
 
 def make_zones(scenario: Scenario, seed: int) -> list[TrueZone]:
@@ -57,6 +71,9 @@ class World:
         self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
         self.targets = [TargetTruth(t) for t in scenario.targets]
+        #: the targets whose motion reacts to the world, and the zones as they see them
+        self._reacting = [t for t in self.targets if t.reacts]
+        self._zone_truths = tuple(zone_truth(z) for z in self.zones)
         m = len(scenario.robots)
         self.failures: dict[FailureKind, list[Failure | None]] = {
             "sensing": [None] * m,
@@ -98,6 +115,17 @@ class World:
         """Per robot, the persistence of its current failure of ``kind`` (``temporary`` or
         ``permanent``); ``""`` when it has none."""
         return tuple("" if f is None else f.persistence for f in self.failures[kind])
+
+    def surroundings(self) -> Surroundings:
+        """The truth a reacting target motion sees now: robots, zones, workspace, time."""
+        ws = self.scenario.workspace
+        return Surroundings(
+            time=self.time,
+            robots=self.robot_positions.copy(),
+            zones=self._zone_truths,
+            lower=ws.lower,
+            upper=ws.upper,
+        )
 
     # ------------------------------------------------------------------ observation
 
@@ -161,6 +189,10 @@ class World:
     def advance(self, applied: np.ndarray) -> None:
         """Advance one step with velocities already clipped by :func:`clip_velocities`."""
         self.robot_positions = self.robot_positions + applied * self.dt
+        if self._reacting:
+            around = self.surroundings()
+            for target in self._reacting:
+                target.sense(around)
         for target in self.targets:
             target.step(self.dt, self._rng_targets)
         self._after_move()
