@@ -12,6 +12,7 @@ import pytest
 
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.catalog import (
+    ADVERSARIAL,
     SIX,
     Experiment,
     Variant,
@@ -45,7 +46,7 @@ def tables_of(out, task):
 def test_catalog_has_every_experiment_of_spec_section_6_with_its_seed_counts():
     full = catalog()
     paper = {*SIX, "bench-risk", "bench-scale", "bench-complex"}
-    assert set(full) == {*paper, *(f"{n}-route" for n in paper), "generalization"}
+    assert set(full) == {*paper, *(f"{n}-route" for n in paper), "generalization", "adversarial"}
     # the paper's experiments on its one-step program, then the same arms and seeds on the route
     for name in paper:
         route = full[f"{name}-route"]
@@ -208,6 +209,45 @@ def test_claims_fail_when_the_numbers_say_so():
     assert [c.holds for c in check(catalog()["bench-complex"], complex_)] == [True, False]
 
 
+def test_adversarial_experiment_runs_three_teams_on_each_adversarial_scenario():
+    exp = catalog()["adversarial"]
+    assert exp.seeds == 10
+    cases = exp.generated()
+    assert [s.name for s, _ in cases] == list(ADVERSARIAL)
+    for scenario, variants in cases:
+        teams = {v.tags["team"]: v for v in variants}
+        assert set(teams) == {"vanilla", "paper", "extended"}
+        assert teams["vanilla"].policy == "vanilla" and not teams["paper"].overrides
+        arm = [t for t in tasks(exp) if t.variant == teams["extended"]][0]
+        assert arm.scenario.estimator.type == "imm"
+        assert scenario.estimator.type == "ekf"
+
+
+def test_adversarial_targets_fail_when_the_numbers_say_so():
+    exp = catalog()["adversarial"]
+    teams = ["vanilla", "paper", "extended"] * 2
+    rows = _summary(
+        tag_scenario=["lure-comm"] * 6,
+        tag_team=teams,
+        seed=[1, 1, 1, 2, 2, 2],
+        trace=[3.0, 2.0, 1.0, 3.0, 2.0, 1.5],  # extended lowest
+        mse=[1.0, 2.0, 1.5, 1.0, 2.0, 1.5],  # below the paper's team, above vanilla
+        losses_known_permanent=[0, 0, 0, 0, 0, 0],
+        losses_unknown_permanent=[2, 2, 1, 2, 2, 0],  # 0.5 vs 2 per run
+    )
+    holds = {c.statement: c.holds for c in check(exp, rows)}
+    assert holds == {
+        "lure-comm: the extended team has a lower mean trace than the paper's team": True,
+        "lure-comm: the extended team has a lower mean mse than the paper's team": True,
+        "lure-comm: the extended team has a lower mean trace than vanilla": True,
+        "lure-comm: the extended team has a lower mean mse than vanilla": False,
+        "lure-comm: permanent losses per run at most 50% of the paper team's, at a trace at "
+        "most 1.2× its": True,
+    }
+    evidence = [c.evidence for c in check(exp, rows)]
+    assert "difference 95 % CI [" in evidence[0] and "lower in 2/2 seeds" in evidence[0]
+
+
 def test_the_combined_narrative_needs_a_sensing_robot_at_the_end_in_most_seeds():
     combined = catalog()["combined-perm"]
     assert combined.keeps_sensing and not catalog()["comm-perm"].keeps_sensing
@@ -277,6 +317,15 @@ def test_quick_reproduction_reports_the_generalization_targets(quick_claims):
     found = [c for (n, _), c in quick_claims.items() if n == "generalization"]
     assert len(found) == 3
     assert all("/" in c.evidence and "CI" in c.evidence for c in found)
+
+
+@pytest.mark.slow
+def test_quick_reproduction_reports_the_adversarial_targets(quick_claims):
+    """The adversarial scenarios run in `all` and their targets are decided (reported, not
+    asserted: the targets are checked over ten seeds, not the quick run's two)."""
+    found = [c for (n, _), c in quick_claims.items() if n == "adversarial"]
+    assert len(found) == 4 * 4 + 2  # four comparisons per scenario, losses on the two lures
+    assert all("95 % CI" in c.evidence or "per run" in c.evidence for c in found)
 
 
 @pytest.mark.slow

@@ -26,7 +26,7 @@ from resilient_tracking import scenarios
 from resilient_tracking.experiments.generator import stored_suite
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.scenario.overrides import PAPER_METHOD, apply_overrides
+from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, PAPER_METHOD, apply_overrides
 
 
 def default_scenario_dir() -> Path:
@@ -231,6 +231,36 @@ def generalization_cases(
     return out
 
 
+#: The shipped scenarios with targets that evade or lure (docs/model.md §1).
+ADVERSARIAL = ("evasive-open", "evasive-zones", "lure-sensing", "lure-comm")
+
+
+def adversarial_cases(
+    names: Iterable[str] = ADVERSARIAL, scenario_dir: Path | None = None
+) -> list[tuple[Scenario, tuple[Variant, ...]]]:
+    """The shipped adversarial scenarios, each with three arms: vanilla, the paper's
+    failure-aware team and the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`).
+    Arms are tagged with the scenario and the team (``vanilla``, ``paper``, ``extended``)."""
+    folder = scenario_dir or default_scenario_dir()
+    arms: tuple[tuple[str, str, Mapping[str, Any]], ...] = (
+        ("vanilla", "vanilla", {}),
+        ("paper", "failure_aware", {}),
+        ("extended", "failure_aware", ADVERSARIAL_TEAM),
+    )
+    out = []
+    for name in names:
+        path = folder / f"{name}.yaml"
+        scenario = Scenario.parse(yaml.safe_load(path.read_text()), path.name)
+        variants = tuple(
+            Variant(
+                f"{name}-{team}", policy, dict(overrides), tags={"scenario": name, "team": team}
+            )
+            for team, policy, overrides in arms
+        )
+        out.append((scenario, variants))
+    return out
+
+
 SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm")
 
 #: Suffix of the experiments that repeat the paper's on the route program.
@@ -311,6 +341,19 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             generated=partial(generalization_cases, QUICK_SUITE, QUICK_MAX_PAIRS)
             if quick
             else partial(generalization_cases, SUITE_SIZE),
+        ),
+        Experiment(
+            "adversarial",
+            "",
+            variants=(),
+            seeds=2 if quick else 10,
+            kind="adversarial",
+            description=(
+                "targets that evade or lure (docs/model.md §1): vanilla, the paper's "
+                "failure-aware team and the team extended for them (the IMM estimator), on "
+                + ", ".join(f"`{n}`" for n in ADVERSARIAL)
+            ),
+            generated=adversarial_cases,
         ),
     ]
     return {e.name: e for e in experiments}

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from resilient_tracking.experiments.catalog import Experiment
+from resilient_tracking.experiments.comparison import confidence_interval
 from resilient_tracking.experiments.generalization import straggler_share, win_rate
 
 
@@ -167,12 +168,74 @@ def generalization_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     return out
 
 
+#: With lures, the extended team's permanent losses per run at most this share of the paper
+#: team's, at a time-mean trace at most this factor of its (docs/model.md §8).
+LURE_LOSS_SHARE = 0.5
+LURE_TRACE_FACTOR = 1.2
+
+
+def _paired(s: pd.DataFrame, metric: str, better: str, worse: str) -> tuple[float, float, str]:
+    """Means of ``metric`` for teams ``better`` and ``worse`` and the 95 % interval of their
+    per-seed difference (``better − worse``), as evidence text."""
+    table = s.pivot_table(index="seed", columns="tag_team", values=metric)
+    diff = (table[better] - table[worse]).dropna().to_numpy()
+    low, high = confidence_interval(diff)
+    wins = int((diff < 0).sum())
+    a, b = float(table[better].mean()), float(table[worse].mean())
+    return (
+        a,
+        b,
+        (
+            f"{a:.4g} vs {b:.4g}; difference 95 % CI [{low:.3g}, {high:.3g}]; "
+            f"lower in {wins}/{len(diff)} seeds"
+        ),
+    )
+
+
+def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
+    """Targets of the ``adversarial`` experiment, per scenario: the extended team has a lower
+    mean trace and MSE than the paper's team and than vanilla; with lures, its permanent losses
+    per run are at most :data:`LURE_LOSS_SHARE` of the paper team's at a trace at most
+    :data:`LURE_TRACE_FACTOR` times its."""
+    out = []
+    for name, rows in s.groupby("tag_scenario", sort=False):
+        for other, who in (("paper", "the paper's team"), ("vanilla", "vanilla")):
+            for metric in ("trace", "mse"):
+                a, b, evidence = _paired(rows, metric, "extended", other)
+                out.append(
+                    Claim(
+                        exp.name,
+                        f"{name}: the extended team has a lower mean {metric} than {who}",
+                        a < b,
+                        evidence,
+                    )
+                )
+        if str(name).startswith("lure"):
+            losses = rows.losses_known_permanent + rows.losses_unknown_permanent
+            ext = float(losses[rows.tag_team == "extended"].mean())
+            paper = float(losses[rows.tag_team == "paper"].mean())
+            trace_ext = _mean(rows, "trace", tag_team="extended")
+            trace_paper = _mean(rows, "trace", tag_team="paper")
+            out.append(
+                Claim(
+                    exp.name,
+                    f"{name}: permanent losses per run at most {LURE_LOSS_SHARE:.0%} of the "
+                    f"paper team's, at a trace at most {LURE_TRACE_FACTOR}× its",
+                    ext <= LURE_LOSS_SHARE * paper and trace_ext <= LURE_TRACE_FACTOR * trace_paper,
+                    f"losses {ext:.2f} vs {paper:.2f} per run; trace {trace_ext:.4g} vs "
+                    f"{trace_paper:.4g}",
+                )
+            )
+    return out
+
+
 CHECKS = {
     "pair": adaptive_beats_vanilla,
     "risk": risky_fails_more,
     "scale": more_robots_lower_trace,
     "complex": only_conservative_survives,
     "generalization": generalization_targets,
+    "adversarial": adversarial_targets,
 }
 
 

@@ -79,7 +79,7 @@ def experiment_section(
     header = f"## {exp.name}\n\n{exp.description}." + (
         " Not one of the paper's experiments: its targets are counted apart from the paper's "
         "claims."
-        if generated
+        if generated or exp.kind == "adversarial"
         else f" Shipped scenario `{exp.scenario}`."
     )
     if not done:
@@ -108,7 +108,7 @@ def experiment_section(
         header,
         f"{len(done)} of {len(tasks)} runs finished; per-run rows in `{exp.name}/summary.csv`.",
         generalization.section(summary) if generated else variant_table(summary),
-        f"**{'Targets' if generated else 'Claims'}**"
+        f"**{'Targets' if generated or exp.kind == 'adversarial' else 'Claims'}**"
         + mark
         + "\n\n"
         + "\n".join(
@@ -163,11 +163,14 @@ GROUPS = (
     ("one_step", "claims hold with the paper's one-step program"),
     ("route", "claims hold with the route program (the default planner)"),
     ("generalization", "generalization-benchmark targets hold (not claims of the paper)"),
+    ("adversarial", "adversarial-target targets hold (not claims of the paper)"),
 )
 
 
 def _group(exp: Experiment) -> str:
-    return "generalization" if exp.kind == "generalization" else exp.program or "one_step"
+    if exp.kind in ("generalization", "adversarial"):
+        return exp.kind
+    return exp.program or "one_step"
 
 
 def _headline(label: str, claims: list[Claim], short: bool) -> str:

@@ -14,7 +14,7 @@ from typing import Any
 from resilient_tracking.scenario.model import Scenario
 from resilient_tracking.scenario.paths import set_path, set_paths
 
-__all__ = ["PAPER_METHOD", "apply_overrides", "overridden", "set_path"]
+__all__ = ["ADVERSARIAL_TEAM", "PAPER_METHOD", "apply_overrides", "overridden", "set_path"]
 
 #: The paper's method as written, by dotted path: its one-step program (eq. 9) and its
 #: constraint set (eqs. 7c, 7d; none of the failure-aware policy's hazard guard), with the
@@ -24,6 +24,13 @@ PAPER_METHOD: dict[str, Any] = {
     "planner.program": "one_step",
     "policy.failure_aware.hazard_guard": False,
     "policy.failure_aware.silence_std": 0.3,
+}
+
+#: The failure-aware team extended for adversarial targets (docs/model.md §4.1), by dotted path:
+#: the interacting multiple model estimator for targets that manoeuvre. Without these settings
+#: the team is the paper's.
+ADVERSARIAL_TEAM: dict[str, Any] = {
+    "estimator.type": "imm",
 }
 
 
