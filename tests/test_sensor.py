@@ -174,3 +174,26 @@ def test_information_is_jacobian_weighted_by_inverse_noise_away_from_the_target(
     info = h.T @ np.diag(rinv) @ h
     expected = np.array([info[0, 0], info[0, 1], info[1, 1]])
     np.testing.assert_allclose(sensor.information(robot, target), expected, rtol=1e-3)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_hessians_match_central_differences_of_the_jacobian(seed: int) -> None:
+    """The closed-form range and bearing Hessians (range-bearing and bearing-only) against
+    the generic default, central differences of the Jacobian; both symmetric."""
+    from resilient_tracking.models.bearing_only import BearingOnlySensor
+    from resilient_tracking.models.sensor import MeasurementModel
+
+    rng = np.random.default_rng(seed)
+    robots = rng.normal(size=(5, 1, 2)) * 2.0
+    targets = rng.normal(size=(1, 4, 2)) * 2.0
+    for sensor, dim in ((RangeBearingSensor(), 2), (BearingOnlySensor(), 1)):
+        exact = sensor.hessian(robots, targets)
+        assert exact.shape == (5, 4, dim, 2, 2)
+        numeric = MeasurementModel.hessian(sensor, robots, targets)
+        np.testing.assert_allclose(exact, numeric, rtol=1e-5, atol=1e-6)
+        np.testing.assert_array_equal(exact, np.swapaxes(exact, -1, -2))
+    # the bearing's Hessian is the one of the bearing-only sensor
+    np.testing.assert_array_equal(
+        RangeBearingSensor().hessian(robots, targets)[..., 1, :, :],
+        BearingOnlySensor().hessian(robots, targets)[..., 0, :, :],
+    )

@@ -51,6 +51,8 @@ def make_estimator(scenario: Scenario, config: TeamConfig | None = None) -> Esti
             spec.manoeuvre_accel_std,
             spec.switch_probability,
             config.sensor,
+            spec.update_iterations,
+            spec.second_order,
         )
     return ExtendedKalmanFilter(config.target_model, config.sensor)
 

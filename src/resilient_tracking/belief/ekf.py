@@ -15,6 +15,17 @@ distance (the filter never sees the true one) and the innovations of the sensor'
 (``ANGLES``: the bearing) wrapped to [−π, π). The information sum is evaluated in the equivalent
 gain form (``P`` is never inverted) and the covariance in Joseph form, so it stays
 symmetric positive definite. Everything is vectorised over robots × targets.
+
+Two options (off by default: the paper's EKF) serve a robot close to a target, where the
+measurement is far from linear across the prior's spread (a bearing's Hessian grows as 1/d²):
+
+* ``second_order``: each channel's variance carries the second-order term of the measurement's
+  Taylor expansion, ``R_c + ½ tr(H″_c P_pp H″_c P_pp)`` (the second-order EKF's innovation
+  covariance, Bar-Shalom, Li & Kirubarajan 2001 §10.3), so a bearing taken within the prior's
+  spread counts for little;
+* ``iterations`` > 1: the iterated EKF (Gauss-Newton on the posterior, Bell & Cathey 1993):
+  relinearise at the last update's position ``p_i`` and update the *prior* again with
+  innovations ``z − h(p_i) − H_i (p̂ − p_i)``.
 """
 
 from __future__ import annotations
@@ -53,9 +64,21 @@ class ExtendedKalmanFilter:
     """EKF for ``N`` independent NCV targets observed by ``K`` robots through ``sensor``
     (its measurement, Jacobian and noise; the paper's is range-bearing)."""
 
-    def __init__(self, model: NearlyConstantVelocity, sensor: MeasurementModel) -> None:
+    def __init__(
+        self,
+        model: NearlyConstantVelocity,
+        sensor: MeasurementModel,
+        iterations: int = 1,
+        second_order: bool = False,
+    ) -> None:
+        if iterations < 1:
+            raise ValueError(f"an EKF update needs at least one iteration, got {iterations}")
         self.model = model
         self.sensor = sensor
+        #: linearisations per update: 1 is the paper's EKF, more the iterated EKF
+        self.iterations = int(iterations)
+        #: whether each channel's noise variance carries its second-order term
+        self.second_order = bool(second_order)
         self._a = model.transition
         self._q = model.process_noise
 
@@ -119,7 +142,23 @@ class ExtendedKalmanFilter:
     def _linearised(
         self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
     ) -> tuple[TargetEstimate, _Linearisation]:
-        """The updated estimate, and what the diagnostics of :meth:`update_detailed` need."""
+        """The updated estimate, and what the diagnostics of :meth:`update_detailed` need: at
+        the predicted positions, then (iterated EKF) at each update's result."""
+        updated, lin = self._linearised_at(est, robot_positions, measurements, None)
+        for _ in range(self.iterations - 1):
+            at = updated.mean[:, :2]
+            updated, lin = self._linearised_at(est, robot_positions, measurements, at)
+        return updated, lin
+
+    def _linearised_at(
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        at: FloatArray | None,
+    ) -> tuple[TargetEstimate, _Linearisation]:
+        """The update of ``est`` with the measurements linearised at the target positions
+        ``at`` ``(N, 2)`` (``None``: at the predicted ones, the paper's EKF)."""
         n = est.n_targets
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
@@ -133,15 +172,21 @@ class ExtendedKalmanFilter:
             raise ValueError("robot_positions must be finite")
 
         mean, cov = est.mean, est.cov
-        pos = mean[:, :2]
+        pos = mean[:, :2] if at is None else at
         seen_from, seen = robots[:, None, :], pos[None, :, :]
         h = sensor.predict(seen_from, seen)  # (K, N, D)
         hjac = sensor.jacobian(seen_from, seen)  # (K, N, D, 2)
         # R(d̂) at the predicted distance
         var = sensor.noise_variance(sensor.noise_distance(seen_from, seen, h))
+        if self.second_order:  # + ½ tr(H″_c P H″_c P) per channel c (second-order EKF)
+            hess = sensor.hessian(seen_from, seen)  # (K, N, D, 2, 2)
+            hp = hess @ cov[None, :, None, :2, :2]
+            var = var + 0.5 * np.einsum("kncab,kncba->knc", hp, hp)
 
         valid = np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
+        if at is not None:  # iterated EKF: z − h(p_i) − H_i (p̂ − p_i)
+            innov = innov - np.einsum("kncj,nj->knc", hjac, mean[:, :2] - at)
         for channel in sensor.ANGLES:
             innov[..., channel] = wrap_angle(innov[..., channel])
         if valid.all():  # every robot measured every target: nothing to mask

@@ -11,7 +11,10 @@ standard IMM of Blom & Bar-Shalom (1988); with ``μ_i`` the mode probabilities:
 * mode-matched prediction: ``ŷ_j = A ŷ⁰_j``, ``P_j = A P⁰_j Aᵀ + Q_j``;
 * mode-matched update (in :meth:`update`): every mode through the team's EKF measurement update
   (:class:`~resilient_tracking.belief.ekf.ExtendedKalmanFilter`, stacked over robots), giving the
-  likelihood ``Λ_j = N(z̃_j; 0, S_j)`` of the target's measurements under mode ``j``;
+  likelihood ``Λ_j = N(z̃_j; 0, S_j)`` of the target's measurements under mode ``j``. The
+  scenario's IMM updates its modes by the iterated second-order EKF: a manoeuvre mode's wide
+  velocity spread turns the first-order update's errors next to a robot (its bearing's linearisation
+  fails within the prior's spread) into velocity errors that feed on themselves;
 * mode probabilities ``μ_j ∝ Λ_j c_j`` (``c_j`` when the target was not measured);
 * combination: the moment match of the modes (:mod:`~resilient_tracking.belief.modes`), the
   estimate's ``mean`` and ``cov`` that the planner, the fusion and the records read.
@@ -47,6 +50,8 @@ class InteractingMultipleModel:
         transition: FloatArray,
         initial: FloatArray,
         sensor: MeasurementModel,
+        iterations: int = 1,
+        second_order: bool = False,
     ) -> None:
         m = len(models)
         if m < 1:
@@ -71,7 +76,7 @@ class InteractingMultipleModel:
         self._a = models[0].transition
         self._q = np.stack([model.process_noise for model in models])  # (M, 4, 4)
         # The measurement update does not involve the motion model: one EKF serves every mode.
-        self._ekf = ExtendedKalmanFilter(models[0], sensor)
+        self._ekf = ExtendedKalmanFilter(models[0], sensor, iterations, second_order)
 
     @classmethod
     def quiet_and_manoeuvre(
@@ -81,10 +86,13 @@ class InteractingMultipleModel:
         manoeuvre_accel_std: float,
         switch_probability: float,
         sensor: MeasurementModel,
+        iterations: int = 1,
+        second_order: bool = False,
     ) -> InteractingMultipleModel:
         """Two NCV modes, quiet (``accel_std``) and manoeuvring (``manoeuvre_accel_std``), each
         left with ``switch_probability`` per step; both equally likely at the start (the chain's
-        stationary distribution)."""
+        stationary distribution). ``iterations`` and ``second_order``: the modes' EKF update
+        (:class:`~resilient_tracking.belief.ekf.ExtendedKalmanFilter`)."""
         p = switch_probability
         return cls(
             [
@@ -94,6 +102,8 @@ class InteractingMultipleModel:
             np.array([[1.0 - p, p], [p, 1.0 - p]]),
             np.array([0.5, 0.5]),
             sensor,
+            iterations,
+            second_order,
         )
 
     @property

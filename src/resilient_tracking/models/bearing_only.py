@@ -26,6 +26,7 @@ from resilient_tracking.models.sensor import (
     MeasurementModel,
     SensorChannel,
     SensorSpec,
+    bearing_hessian,
     register_sensor,
     wrap_angle,
 )
@@ -99,6 +100,11 @@ class BearingOnlySensor(MeasurementModel):
         dx, dy = delta[..., 0], delta[..., 1]
         d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
         return np.stack([-dy / d2, dx / d2], axis=-1)[..., None, :]
+
+    def hessian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
+        """The bearing's Hessian w.r.t. the target position, ``(..., 1, 2, 2)``."""
+        delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        return bearing_hessian(delta)[..., None, :, :]
 
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
         """Whether a target at this distance (m) is measured: within ``max_range``, or always when

@@ -48,11 +48,39 @@ MIN_RANGE = 1e-3
 MAX_EXPONENT = 600.0
 #: Distance regularisation (m) of the planners' information model: ``d² → d² + PLAN_EPS²``.
 PLAN_EPS = 0.05
+#: Relative step of :meth:`MeasurementModel.hessian`'s central differences (of the distance).
+HESSIAN_STEP = 1e-5
 
 
 def wrap_angle(a: FloatArray | float) -> FloatArray | float:
     """Wrap angles to [−π, π)."""
     return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def range_hessian(delta: FloatArray) -> FloatArray:
+    """Hessian of the range ``‖δ‖`` w.r.t. the target, ``(I − uuᵀ)/d`` (``u = δ/d``, ``d``
+    clamped at ``MIN_RANGE``), for offsets ``δ = p − x`` ``(..., 2)``: ``(..., 2, 2)``."""
+    dx, dy = delta[..., 0], delta[..., 1]
+    d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
+    d3 = d2 * np.sqrt(d2)
+    out = np.empty(dx.shape + (2, 2))
+    out[..., 0, 0] = dy * dy / d3
+    out[..., 0, 1] = out[..., 1, 0] = -dx * dy / d3
+    out[..., 1, 1] = dx * dx / d3
+    return out
+
+
+def bearing_hessian(delta: FloatArray) -> FloatArray:
+    """Hessian of the bearing ``atan2(δy, δx)`` w.r.t. the target,
+    ``[[2δxδy, δy² − δx²], [δy² − δx², −2δxδy]] / d⁴`` (``d`` clamped at ``MIN_RANGE``), for
+    offsets ``δ = p − x`` ``(..., 2)``: ``(..., 2, 2)``."""
+    dx, dy = delta[..., 0], delta[..., 1]
+    d4 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2) ** 2
+    out = np.empty(dx.shape + (2, 2))
+    out[..., 0, 0] = 2.0 * dx * dy / d4
+    out[..., 0, 1] = out[..., 1, 0] = (dy * dy - dx * dx) / d4
+    out[..., 1, 1] = -2.0 * dx * dy / d4
+    return out
 
 
 # ---------------------------------------------------------------------------- parameters
@@ -155,6 +183,24 @@ class MeasurementModel(ABC):
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Jacobian of the measurement w.r.t. the target position; broadcasts,
         ``(..., DIM, 2)``."""
+
+    def hessian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
+        """Second derivatives of each measurement channel w.r.t. the target position,
+        ``(..., DIM, 2, 2)``; what the EKF's second-order update needs. This default takes
+        central differences of :meth:`jacobian`; a model with a closed form overrides it."""
+        robot = np.asarray(robot, dtype=float)
+        target = np.asarray(target, dtype=float)
+        scale = np.maximum(np.linalg.norm(target - robot, axis=-1), MIN_RANGE)
+        step = (HESSIAN_STEP * scale)[..., None]
+        columns = []
+        for axis in range(2):
+            e = np.zeros(2)
+            e[axis] = 1.0
+            ahead = self.jacobian(robot, target + step * e)
+            behind = self.jacobian(robot, target - step * e)
+            columns.append((ahead - behind) / (2.0 * step[..., None]))
+        hess = np.stack(columns, axis=-1)  # (..., DIM, 2, 2): [..., c, i, j] = ∂H_ci/∂p_j
+        return np.asarray(0.5 * (hess + np.swapaxes(hess, -1, -2)), dtype=float)
 
     @abstractmethod
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
@@ -273,6 +319,11 @@ class RangeBearingSensor(MeasurementModel):
         out[..., 1, :] = delta[..., ::-1] / d2[..., None]  # bearing row [−dy, dx] / d²:
         np.negative(out[..., 1, 0], out=out[..., 1, 0])  # (−dy)/d² is −(dy/d²) exactly
         return out
+
+    def hessian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
+        """Hessians of range and bearing w.r.t. the target position, ``(..., 2, 2, 2)``."""
+        delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        return np.stack([range_hessian(delta), bearing_hessian(delta)], axis=-3)
 
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
         """Whether a target at this distance (m) is measured: within ``max_range``, or always when

@@ -23,6 +23,9 @@ from resilient_tracking.spec import (
     Velocity2,
 )
 
+#: Most linearisations of one measurement update (the iterated EKF converges in a few).
+MAX_UPDATE_ITERATIONS = 100
+
 # ---------------------------------------------------------------------------- geometry
 
 
@@ -258,6 +261,24 @@ class ImmEstimatorSpec(_EstimatorBase):
             "equally likely."
         ),
         json_schema_extra={"unit": "per step"},
+    )
+    update_iterations: int = Field(
+        5,
+        ge=1,
+        le=MAX_UPDATE_ITERATIONS,
+        description=(
+            "Linearisations per measurement update of each mode (the iterated EKF); 1: the "
+            "paper's EKF update."
+        ),
+        json_schema_extra={"unit": "count"},
+    )
+    second_order: bool = Field(
+        True,
+        description=(
+            "Whether the modes' measurement noise carries its second-order term, so a "
+            "measurement taken within the estimate's spread (a robot next to the target) counts "
+            "for little; false: the paper's EKF update."
+        ),
     )
 
 
