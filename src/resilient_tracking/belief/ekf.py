@@ -112,10 +112,8 @@ class ExtendedKalmanFilter:
         mean, cov = est.mean, est.cov
         pos = mean[:, :2]
         seen_from, seen = robots[:, None, :], pos[None, :, :]
-        h = sensor.predict(seen_from, seen)  # (K, N, D)
-        hjac = sensor.jacobian(seen_from, seen)  # (K, N, D, 2)
-        # R(d̂) at the predicted distance
-        var = sensor.noise_variance(sensor.noise_distance(seen_from, seen, h))
+        # h (K, N, D), its Jacobian (K, N, D, 2), R(d̂) at the predicted distance (K, N, D)
+        h, hjac, var = sensor.linearise(seen_from, seen)
 
         valid = np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
@@ -138,10 +136,11 @@ class ExtendedKalmanFilter:
         m = _EYE2 + info @ cov[:, :2, :2]
         f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
+        f_info = f @ info
         kh = np.zeros((n, 4, 4))
-        kh[:, :, :2] = f @ info
+        kh[:, :, :2] = f_info
         i_kh = _EYE4 - kh
-        joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f @ info @ f.swapaxes(1, 2)
+        joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f_info @ f.swapaxes(1, 2)
         new_cov = _symmetrize(joseph)
         return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
 

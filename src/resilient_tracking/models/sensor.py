@@ -156,6 +156,16 @@ class MeasurementModel(ABC):
         """Jacobian of the measurement w.r.t. the target position; broadcasts,
         ``(..., DIM, 2)``."""
 
+    def linearise(
+        self, robot: FloatArray, target: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """What the EKF linearises with, at once: :meth:`predict`, :meth:`jacobian` and
+        :meth:`noise_variance` at :meth:`noise_distance`; a model may share work between them
+        (the same numbers as the three calls)."""
+        h = self.predict(robot, target)
+        variance = self.noise_variance(self.noise_distance(robot, target, h))
+        return h, self.jacobian(robot, target), variance
+
     @abstractmethod
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
         """Whether a target at this distance is measured at all."""
@@ -240,7 +250,25 @@ class RangeBearingSensor(MeasurementModel):
 
     def predict(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Noise-free measurement ``[‖p − x‖, atan2(Δy, Δx)]``; arrays broadcast over rows."""
+        return self._predict(np.asarray(target, dtype=float) - np.asarray(robot, dtype=float))
+
+    def linearise(
+        self, robot: FloatArray, target: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`predict`, :meth:`jacobian` and the noise variance at the predicted range, from
+        one difference ``target − robot`` (a subclass that replaces one of them: its own)."""
+        cls = type(self)
+        if not (
+            cls.predict is RangeBearingSensor.predict
+            and cls.jacobian is RangeBearingSensor.jacobian
+            and cls.noise_distance is RangeBearingSensor.noise_distance
+        ):
+            return super().linearise(robot, target)
         delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        h = self._predict(delta)
+        return h, self._jacobian(delta), self.noise_variance(h[..., 0])
+
+    def _predict(self, delta: FloatArray) -> FloatArray:
         out = np.empty(delta.shape)
         out[..., 0] = np.hypot(delta[..., 0], delta[..., 1])
         out[..., 1] = np.arctan2(delta[..., 1], delta[..., 0])
@@ -264,7 +292,9 @@ class RangeBearingSensor(MeasurementModel):
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Jacobian of the measurement w.r.t. the target position: rows ``δᵀ/d`` (range) and
         ``[−δy, δx]/d²`` (bearing), ``d`` clamped at ``MIN_RANGE``; broadcasts, ``(..., 2, 2)``."""
-        delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        return self._jacobian(np.asarray(target, dtype=float) - np.asarray(robot, dtype=float))
+
+    def _jacobian(self, delta: FloatArray) -> FloatArray:
         dx, dy = delta[..., 0], delta[..., 1]
         d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
         d = np.sqrt(d2)
