@@ -19,6 +19,7 @@ symmetric positive definite. Everything is vectorised over robots × targets.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -106,7 +107,8 @@ class ExtendedKalmanFilter:
             raise ValueError(
                 f"measurements must have shape ({k}, {n}, {sensor.DIM}), got {z.shape}"
             )
-        if not np.isfinite(robots).all():
+        # a finite sum has finite terms: the elementwise test only when the sum is not finite
+        if not math.isfinite(np.add.reduce(robots, axis=None)) and not np.isfinite(robots).all():
             raise ValueError("robot_positions must be finite")
 
         mean, cov = est.mean, est.cov

@@ -74,6 +74,8 @@ class TeamBelief:
         self.learned: list[tuple[int, ZoneEstimate]] = []
         #: zones of a hazard map not yet learned (:meth:`map_zones`)
         self._mapped: list[ZoneEstimate] = []
+        #: whether a robot learned something or the leagues changed since knowledge was shared
+        self._unshared = True
 
     def map_zones(self, zones: Iterable[ZoneEstimate]) -> None:
         """Zones the team knows before it starts (a hazard map): every robot learns them at the
@@ -142,6 +144,7 @@ class TeamBelief:
     def _learn(self, robot: int, estimate: ZoneEstimate) -> None:
         if self.knowledge[robot].learn(estimate):
             self.learned.append((robot, estimate))
+            self._unshared = True
 
     def _regroup(self, leagues: list[list[int]], step: int) -> list[Event]:
         if leagues == self.leagues:  # the usual tick: same leagues, same estimates
@@ -168,6 +171,7 @@ class TeamBelief:
                 events.append(Event.league_split(step, league))
             estimates.append(estimate)
         self.leagues = leagues
+        self._unshared = True
         self.estimates = estimates
         self._predicted = [None] * len(estimates)
         self.league_of = np.empty(self.n_robots, dtype=int)
@@ -176,6 +180,9 @@ class TeamBelief:
         return events
 
     def _share_knowledge(self) -> None:
+        if not self._unshared:  # every league's members already hold the same knowledge
+            return
+        self._unshared = False
         for league in self.leagues:
             if len(league) < 2:
                 continue

@@ -14,6 +14,7 @@ naming the quantity and the step, so no table ever holds one.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -52,7 +53,8 @@ def check_finite(step: int, quantities: dict[str, Any]) -> None:
     """Raise :class:`NonFiniteError` naming the first of ``quantities`` (name: number or
     array) that holds a number that is not finite."""
     for name, value in quantities.items():
-        if not np.isfinite(value).all():
+        # a finite sum has finite terms: the elementwise test only when the sum is not finite
+        if not math.isfinite(np.add.reduce(value, axis=None)) and not np.isfinite(value).all():
             raise NonFiniteError(f"step {step}: {name} is not finite")
 
 

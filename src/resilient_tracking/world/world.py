@@ -56,6 +56,7 @@ class World:
         self.zones = make_zones(scenario, seed)
         self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
+        self._lower, self._upper = scenario.workspace.lower, scenario.workspace.upper
         self.targets = [TargetTruth(t) for t in scenario.targets]
         m = len(scenario.robots)
         self.failures: dict[FailureKind, list[Failure | None]] = {
@@ -133,9 +134,8 @@ class World:
 
     def clip_controls(self, controls: np.ndarray) -> np.ndarray:
         """Velocity bounds per component, then keep the next position inside the workspace."""
-        ws = self.scenario.workspace
         return clip_velocities(
-            self.robot_positions, controls, self.u_max, ws.lower, ws.upper, self.dt
+            self.robot_positions, controls, self.u_max, self._lower, self._upper, self.dt
         )
 
     def step(self, controls: np.ndarray) -> np.ndarray:
@@ -147,8 +147,8 @@ class World:
         u = np.asarray(controls, dtype=float)
         if u.shape != (self.n_robots, 2):
             raise ValueError(f"controls have shape {u.shape}, expected ({self.n_robots}, 2)")
-        bad = ~np.isfinite(u).all(axis=1)
-        if bad.any():
+        if not np.isfinite(u).all():
+            bad = ~np.isfinite(u).all(axis=1)
             log.warning(
                 "step %d: the controls of robots %s are not finite; they hold position",
                 self.step_index,
