@@ -122,7 +122,7 @@ class ExtendedKalmanFilter:
         for channel in sensor.ANGLES:
             innov[..., channel] = wrap_angle(innov[..., channel])
         if valid.all():  # every robot measured every target: nothing to mask
-            rinv = 1.0 / var
+            rinv = np.divide(_ONE, var)
         else:
             innov = np.where(valid[..., None], innov, 0.0)
             rinv = np.where(valid[..., None], 1.0 / var, 0.0)
@@ -183,7 +183,9 @@ class _Linearisation(NamedTuple):
 
 _EYE2, _EYE4 = np.eye(2), np.eye(4)
 _EYE2.flags.writeable = _EYE4.flags.writeable = False
+#: 1 and ½ as 0-d float64 arrays (faster than Python floats in NumPy operations, same numbers)
+_ONE, _HALF = np.array(1.0), np.array(0.5)
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:
-    return np.asarray(0.5 * (cov + cov.swapaxes(-1, -2)), dtype=float)
+    return np.asarray(np.multiply(_HALF, cov + cov.swapaxes(-1, -2)), dtype=float)

@@ -104,7 +104,7 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
             return None
         sym = 0.5 * (cov + transposed)
     trace = sym.trace(axis1=1, axis2=2)
-    shift = 2 * np.maximum(EIGEN_FLOOR_RATIO * trace, EIGEN_FLOOR_ABS)
+    shift = np.multiply(2, np.maximum(np.multiply(EIGEN_FLOOR_RATIO, trace), EIGEN_FLOOR_ABS))
     try:
         np.linalg.cholesky(sym - shift[:, None, None] * _eye(cov.shape[-1]))
     except np.linalg.LinAlgError:

@@ -20,6 +20,7 @@ variance is ``R(d) = exp(shape · d) / peak``; noise is drawn with that variance
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Literal
@@ -48,11 +49,20 @@ MIN_RANGE = 1e-3
 MAX_EXPONENT = 600.0
 #: Distance regularisation (m) of the planners' information model: ``d² → d² + PLAN_EPS²``.
 PLAN_EPS = 0.05
+_MIN_RANGE_SQUARED = np.array(MIN_RANGE**2)
+
+
+#: π and 2π as 0-d float64 arrays: NumPy combines one with a float64 array faster than a
+#: Python float (the same operation, so the same numbers)
+_PI, _TWO_PI = np.array(np.pi), np.array(2.0 * np.pi)
 
 
 def wrap_angle(a: FloatArray | float) -> FloatArray | float:
     """Wrap angles to [−π, π)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+    x = np.asarray(a)
+    if x.dtype == np.float64:  # the usual case, with the constants as float64 arrays
+        return np.subtract(np.remainder(np.add(x, _PI), _TWO_PI), _PI)  # type: ignore[no-any-return]
+    return (x + np.pi) % (2.0 * np.pi) - np.pi
 
 
 # ---------------------------------------------------------------------------- parameters
@@ -278,10 +288,20 @@ class RangeBearingSensor(MeasurementModel):
         """Per-channel variance ``[R_range(d), R_bearing(d)]``."""
         d = np.asarray(distance, dtype=float)
         out = np.empty(d.shape + (2,))
+        range_shape, range_peak, bearing_shape, bearing_peak, cap = self._constants
         # capped exponent: far beyond the sensor's reach the variance is huge but finite
-        out[..., 0] = np.exp(np.minimum(self.range_shape * d, MAX_EXPONENT)) / self.range_peak
-        out[..., 1] = np.exp(np.minimum(self.bearing_shape * d, MAX_EXPONENT)) / self.bearing_peak
+        out[..., 0] = np.divide(np.exp(np.minimum(np.multiply(range_shape, d), cap)), range_peak)
+        out[..., 1] = np.divide(
+            np.exp(np.minimum(np.multiply(bearing_shape, d), cap)), bearing_peak
+        )
         return out
+
+    @functools.cached_property
+    def _constants(self) -> tuple[FloatArray, ...]:
+        """The channels' shapes and peaks and ``MAX_EXPONENT`` as 0-d float64 arrays (faster
+        in NumPy operations than Python floats, the same numbers)."""
+        values = (self.range_shape, self.range_peak, self.bearing_shape, self.bearing_peak)
+        return tuple(np.array(float(v)) for v in (*values, MAX_EXPONENT))
 
     def noise_distance(
         self, robot: FloatArray, target: FloatArray, measurement: FloatArray
@@ -296,7 +316,7 @@ class RangeBearingSensor(MeasurementModel):
 
     def _jacobian(self, delta: FloatArray) -> FloatArray:
         dx, dy = delta[..., 0], delta[..., 1]
-        d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
+        d2 = np.maximum(dx * dx + dy * dy, _MIN_RANGE_SQUARED)
         d = np.sqrt(d2)
         out = np.empty(d.shape + (2, 2))
         out[..., 0, :] = delta / d[..., None]  # range row [dx, dy] / d

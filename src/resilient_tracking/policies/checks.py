@@ -70,7 +70,7 @@ def decision_problems(
 
 def _within(controls: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
     """Whether every (finite) control is within its bounds, to the tolerance."""
-    lo, hi = lower - BOUND_TOLERANCE, upper + BOUND_TOLERANCE
+    lo, hi = np.subtract(lower, BOUND_TOLERANCE), np.add(upper, BOUND_TOLERANCE)
     return bool(((controls >= lo) & (controls <= hi)).all())
 
 

@@ -160,7 +160,7 @@ class World:
 
     def advance(self, applied: np.ndarray) -> None:
         """Advance one step with velocities already clipped by :func:`clip_velocities`."""
-        self.robot_positions = self.robot_positions + applied * self.dt
+        self.robot_positions = self.robot_positions + np.multiply(applied, self.dt)
         for target in self.targets:
             target.step(self.dt, self._rng_targets)
         self._after_move()
