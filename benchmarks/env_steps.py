@@ -1,7 +1,8 @@
 """Throughput of the learning environments: environment steps per second, without a planner
 (random velocities), at 3×3 (``sensing-temp``) and 20×20 (``soak-20x20``), in one process and
-as a vector of processes (Gymnasium's ``AsyncVectorEnv``, one per core); then where one step's
-time goes, part by part.
+as a vector of processes (Gymnasium's ``AsyncVectorEnv``, one per core), with the run tables
+recorded (the default) and without (``record=False``); then where one step's time goes, part by
+part.
 
     python -m benchmarks.env_steps            # about a minute
     python -m benchmarks.env_steps --quick    # a smoke run
@@ -28,10 +29,10 @@ from benchmarks.common import machine, save, table
 CASES = (("sensing-temp", "3×3"), ("soak-20x20", "20×20"))
 
 
-def make_env(name: str) -> Any:
+def make_env(name: str, record: bool = True) -> Any:
     from resilient_tracking.env import TeamEnv
 
-    return TeamEnv(name)
+    return TeamEnv(name, record=record)
 
 
 def random_actions(env: Any, steps: int) -> list[Any]:
@@ -40,12 +41,14 @@ def random_actions(env: Any, steps: int) -> list[Any]:
     return [env.action_space.sample() for _ in range(steps)]
 
 
-def one_process(name: str, steps: int, planner: bool = False) -> tuple[float, float]:
+def one_process(
+    name: str, steps: int, planner: bool = False, record: bool = True
+) -> tuple[float, float]:
     """Steps per second of wall time and per second of this process's CPU time, of one
     ``TeamEnv`` driven by random velocities (or, with ``planner``, by the failure-aware
     policy's own). On a machine shared with other work the CPU figure is what one core of
     one's own would give."""
-    env = make_env(name)
+    env = make_env(name, record)
     actions = random_actions(env, steps)
     env.reset(seed=0)
 
@@ -122,9 +125,9 @@ def timed_parts(spent: dict[str, float]) -> Iterator[None]:
             setattr(owner, attr, original)
 
 
-def parts(name: str, steps: int) -> dict[str, float]:
+def parts(name: str, steps: int, record: bool = True) -> dict[str, float]:
     """Microseconds per step of each part of an environment step (random velocities)."""
-    env = make_env(name)
+    env = make_env(name, record)
     actions = random_actions(env, steps)
     env.reset(seed=0)
     spent: dict[str, float] = {}
@@ -153,10 +156,14 @@ def main(argv: list[str] | None = None) -> None:
         single, single_cpu = one_process(name, n)
         vec = vector(name, n, workers)
         rows.append([size, name, "random", single, single_cpu, vec])
+        bare, bare_cpu = one_process(name, n, record=False)
+        rows.append([size, name, "random, record=False", bare, bare_cpu, np.nan])
         results[name] = {
             "one_process": single,
             "one_process_cpu": single_cpu,
             f"vector_{workers}": vec,
+            "one_process_no_record": bare,
+            "one_process_no_record_cpu": bare_cpu,
         }
     planned, planned_cpu = one_process("sensing-temp", int(600 * scale), planner=True)
     rows.append(["3×3", "sensing-temp", "failure-aware planner", planned, planned_cpu, np.nan])
@@ -169,12 +176,15 @@ def main(argv: list[str] | None = None) -> None:
     split = {
         name: parts(name, int((3000 if size == "3×3" else 600) * scale)) for name, size in CASES
     }
+    bare_name = CASES[0][0]
+    split[f"{bare_name}, record=False"] = parts(bare_name, int(3000 * scale), record=False)
+    columns = [*(f"{size} ({name})" for name, size in CASES), "3×3, record=False"]
     labels = list(split[CASES[0][0]])
     print()
     print(
         table(
-            [[label, *(split[name][label] for name, _ in CASES)] for label in labels],
-            ["µs per step", *(f"{size} ({name})" for name, size in CASES)],
+            [[label, *(split[name].get(label, np.nan) for name in split)] for label in labels],
+            ["µs per step", *columns],
         )
     )
     path = save("env_steps", {"machine": machine(), "steps_per_s": results, "parts_us": split})

@@ -146,3 +146,25 @@ def test_compare_says_which_runs_of_a_plugin_failed_one_line_each(tmp_path, caps
     stored = sorted(p.parent.parent.name for p in out.glob("runs/*/*/seed-*/manifest.json"))
     assert stored == 2 * [f"{__name__}_WrongShapePolicy"]
     assert not (out / "report.md").exists()
+
+
+def test_the_team_s_velocity_bounds_follow_the_positions_they_are_asked_for():
+    from resilient_tracking.build import team_config
+
+    config = team_config(shipped("sensing-temp"))
+    everyone = list(range(config.n_robots))
+    positions = np.array([[-3.9, 0.0], [0.0, 2.95], [3.99, -2.99]])
+    first = config.velocity_bounds(everyone, positions)
+    again = config.velocity_bounds(everyone, positions.copy())
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    # each robot alone gets its row of the team's bounds
+    for i in everyone:
+        alone = config.velocity_bounds([i], positions)
+        assert np.array_equal(alone[0], first[0][[i]]) and np.array_equal(alone[1], first[1][[i]])
+    positions[0] = [3.95, 0.0]  # moved in place: new bounds, not the kept ones
+    moved = config.velocity_bounds(everyone, positions)
+    fresh = team_config(shipped("sensing-temp")).velocity_bounds(everyone, positions)
+    assert all(np.array_equal(a, b) for a, b in zip(moved, fresh, strict=True))
+    assert moved[1][0, 0] < first[1][0, 0]
+    with pytest.raises(ValueError, match="read-only"):
+        moved[0][0, 0] = 0.0

@@ -168,3 +168,30 @@ def test_after_a_split_each_robot_sees_its_own_leagues_estimate():
     assert not np.array_equal(obs["targets"][0], obs["targets"][1]) or not np.array_equal(
         obs["targets"][1], obs["targets"][2]
     )
+
+
+def test_without_recording_the_episode_is_the_same_and_has_no_tables():
+    recorded = random_episode(parallel_env("combined-temp", steps=STEPS), seed=5)
+    env = parallel_env("combined-temp", steps=STEPS, record=False)
+    unrecorded = random_episode(env, seed=5)
+    for seen, again in zip(recorded[0], unrecorded[0], strict=True):
+        for agent, view in seen.items():
+            for field, value in view.items():
+                assert np.array_equal(value, again[agent][field]), (agent, field)
+    assert recorded[1] == unrecorded[1]
+    with pytest.raises(RuntimeError, match="record=False"):
+        env.session.result()
+    with pytest.raises(ValueError, match="record=False"):
+        TeamEnv("sensing-temp", render_mode="rgb_array", record=False)
+
+
+def test_without_recording_the_info_holds_the_recorded_mse():
+    infos = []
+    for record in (True, False):
+        env = TeamEnv("sensing-temp", steps=STEPS, record=record)
+        env.reset(seed=2)
+        env.action_space.seed(2)
+        infos.append([env.step(env.action_space.sample())[-1] for _ in range(STEPS)])
+    mses = [[info["mse"] for info in run] for run in infos]
+    assert mses[0] == mses[1] and np.isfinite(mses[0]).all()
+    assert infos[0] == infos[1]

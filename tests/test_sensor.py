@@ -197,3 +197,24 @@ def test_hessians_match_central_differences_of_the_jacobian(seed: int) -> None:
         RangeBearingSensor().hessian(robots, targets)[..., 1, :, :],
         BearingOnlySensor().hessian(robots, targets)[..., 0, :, :],
     )
+
+
+def test_linearise_gives_the_bits_of_predict_jacobian_and_noise_variance():
+
+    rng = np.random.default_rng(0)
+    robots, targets = rng.uniform(-5, 5, (4, 1, 2)), rng.uniform(-5, 5, (1, 3, 2))
+    targets[0, 0] = robots[1, 0]  # a target on a robot: the clamped distance
+
+    class Shifted(RangeBearingSensor):
+        """A subclass with its own prediction: linearise must use it."""
+
+        def predict(self, robot, target):
+            return super().predict(robot, target) + 1.0
+
+    for sensor in (RangeBearingSensor(range_shape=0.3, max_range=4.0), Shifted()):
+        h, jacobian, variance = sensor.linearise(robots, targets)
+        expected_h = sensor.predict(robots, targets)
+        assert np.array_equal(h, expected_h)
+        assert np.array_equal(jacobian, sensor.jacobian(robots, targets))
+        noise = sensor.noise_variance(sensor.noise_distance(robots, targets, expected_h))
+        assert np.array_equal(variance, noise)

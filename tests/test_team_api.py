@@ -135,3 +135,18 @@ def test_an_observation_with_other_targets_than_the_team_is_named():
     )
     with pytest.raises(ValueError, match="TeamObservation.measurements: the team tracks 3"):
         team.step(obs)
+
+
+def test_leagues_follow_the_links_even_when_they_change_in_place():
+    team = Team.from_scenario(shipped("sensing-temp"), np.zeros((3, 2)))
+    positions = np.array([[-1.0, 0.0], [0.0, 0.0], [1.0, 0.0]])
+    targets = np.zeros((3, 2)) + 0.5
+    links = np.ones((3, 3), bool)
+    np.fill_diagonal(links, False)
+    seen = []
+    for step, cut in enumerate([False, False, True, True, False]):
+        links[2, :2] = links[:2, 2] = not cut  # the same array, edited between ticks
+        team.step(observation(step, positions, targets, np.ones(3, bool), links))
+        seen.append([list(league) for league in team.belief.leagues])
+    whole, split = [[0, 1, 2]], [[0, 1], [2]]
+    assert seen == [whole, whole, split, split, whole]

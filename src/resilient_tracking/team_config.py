@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import functools
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -22,6 +24,8 @@ class TeamConfig:
     target_model: NearlyConstantVelocity
     #: links beyond this distance are lost without any jammer (None: no range limit)
     comm_range: float | None = None
+    #: the whole team's last bounds: [positions' bytes, their shape, lower, upper]
+    _team_bounds: list[Any] = field(default_factory=list, init=False, repr=False, compare=False)
 
     @property
     def n_robots(self) -> int:
@@ -31,11 +35,35 @@ class TeamConfig:
     def velocity_bounds(
         self, robots: list[int], positions: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Per-axis bounds on ``u`` that respect ``u_max`` and keep ``x + u dt`` in the box."""
-        if len(positions) == len(self.u_max) and list(robots) == list(range(len(positions))):
-            umax, x = self.u_max[:, None], positions  # the whole team, in order: no copies
-        else:
-            umax, x = self.u_max[robots][:, None], positions[robots]
-        lower = np.minimum(np.maximum(-umax, (self.lower - x) / self.dt), 0.0)
-        upper = np.maximum(np.minimum(umax, (self.upper - x) / self.dt), 0.0)
+        """Per-axis bounds on ``u`` that respect ``u_max`` and keep ``x + u dt`` in the box.
+
+        The whole team's bounds (``robots`` all, in order) are kept for the last positions
+        asked (read-only), as a tick asks for them more than once."""
+        whole = len(positions) == len(self.u_max) and list(robots) == list(range(len(positions)))
+        if whole and isinstance(positions, np.ndarray) and positions.dtype == np.float64:
+            key = positions.tobytes()
+            memo = self._team_bounds
+            if memo and memo[0] == key and memo[1] == positions.shape:
+                return memo[2], memo[3]
+            lower, upper = self._bounds(*self._team_umax, positions)
+            lower.flags.writeable = upper.flags.writeable = False
+            memo[:] = [key, positions.shape, lower, upper]
+            return lower, upper
+        if whole:
+            return self._bounds(*self._team_umax, positions)
+        umax = self.u_max[robots][:, None]
+        return self._bounds(umax, -umax, positions[robots])
+
+    def _bounds(
+        self, umax: np.ndarray, negative: np.ndarray, x: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        # (ufuncs called by name: faster than the operators with a Python float, same numbers)
+        lower = np.minimum(np.maximum(negative, np.divide(self.lower - x, self.dt)), 0.0)
+        upper = np.maximum(np.minimum(umax, np.divide(self.upper - x, self.dt)), 0.0)
         return lower, upper
+
+    @functools.cached_property
+    def _team_umax(self) -> tuple[np.ndarray, np.ndarray]:
+        """``u_max`` and ``−u_max`` as columns ``(M, 1)``."""
+        umax = self.u_max[:, None]
+        return umax, -umax

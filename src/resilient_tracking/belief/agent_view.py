@@ -82,8 +82,10 @@ def team_views(
     own[:, 2] = u_max
     own[:, 3] = obs.sensing_ok
     own[:, 4] = obs.comm_ok
-    own[:, 5] = [p == "permanent" for p in obs.sensing_persistence]
-    own[:, 6] = [p == "permanent" for p in obs.comm_persistence]
+    own[:, 5:7] = [
+        (p == "permanent", q == "permanent")
+        for p, q in zip(obs.sensing_persistence, obs.comm_persistence, strict=True)
+    ]
     own[:, 7] = obs.time
     if len(belief.estimates) == 1:  # one league: every robot sees the same estimate
         means = np.empty((m, *belief.estimates[0].mean.shape), dtype=np.float32)
@@ -92,8 +94,11 @@ def team_views(
     else:
         means = np.stack([e.mean for e in belief.estimates]).astype(np.float32)[league_of]
         covs = np.stack([e.cov for e in belief.estimates]).astype(np.float32)[league_of]
-    mates = (league_of[:, None] == league_of[None, :]).astype(np.float32)
-    np.fill_diagonal(mates, 0.0)
+    if len(belief.leagues) == 1:  # one league: every other robot is a teammate
+        mates = np.ones((m, m), dtype=np.float32)
+    else:
+        mates = (league_of[:, None] == league_of[None, :]).astype(np.float32)
+    mates.flat[:: m + 1] = 0.0  # not its own teammate
     teammates = np.empty((m, m, 2), dtype=np.float32)
     teammates[:] = obs.positions
     zones = np.zeros((m, max_zones, 7), dtype=np.float32)

@@ -30,6 +30,7 @@ measurement is far from linear across the prior's spread (a bearing's Hessian gr
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -168,16 +169,15 @@ class ExtendedKalmanFilter:
             raise ValueError(
                 f"measurements must have shape ({k}, {n}, {sensor.DIM}), got {z.shape}"
             )
-        if not np.isfinite(robots).all():
+        # a finite sum has finite terms: the elementwise test only when the sum is not finite
+        if not math.isfinite(np.add.reduce(robots, axis=None)) and not np.isfinite(robots).all():
             raise ValueError("robot_positions must be finite")
 
         mean, cov = est.mean, est.cov
         pos = mean[:, :2] if at is None else at
         seen_from, seen = robots[:, None, :], pos[None, :, :]
-        h = sensor.predict(seen_from, seen)  # (K, N, D)
-        hjac = sensor.jacobian(seen_from, seen)  # (K, N, D, 2)
-        # R(d̂) at the predicted distance
-        var = sensor.noise_variance(sensor.noise_distance(seen_from, seen, h))
+        # h (K, N, D), its Jacobian (K, N, D, 2), R(d̂) at the predicted distance (K, N, D)
+        h, hjac, var = sensor.linearise(seen_from, seen)
         if self.second_order:  # + ½ tr(H″_c P H″_c P) per channel c (second-order EKF)
             hess = sensor.hessian(seen_from, seen)  # (K, N, D, 2, 2)
             hp = hess @ cov[None, :, None, :2, :2]
@@ -190,7 +190,7 @@ class ExtendedKalmanFilter:
         for channel in sensor.ANGLES:
             innov[..., channel] = wrap_angle(innov[..., channel])
         if valid.all():  # every robot measured every target: nothing to mask
-            rinv = 1.0 / var
+            rinv = np.divide(_ONE, var)
         else:
             innov = np.where(valid[..., None], innov, 0.0)
             rinv = np.where(valid[..., None], 1.0 / var, 0.0)
@@ -206,10 +206,11 @@ class ExtendedKalmanFilter:
         m = _EYE2 + info @ cov[:, :2, :2]
         f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
+        f_info = f @ info
         kh = np.zeros((n, 4, 4))
-        kh[:, :, :2] = f @ info
+        kh[:, :, :2] = f_info
         i_kh = _EYE4 - kh
-        joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f @ info @ f.swapaxes(1, 2)
+        joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f_info @ f.swapaxes(1, 2)
         new_cov = _symmetrize(joseph)
         return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
 
@@ -250,7 +251,9 @@ class _Linearisation(NamedTuple):
 
 _EYE2, _EYE4 = np.eye(2), np.eye(4)
 _EYE2.flags.writeable = _EYE4.flags.writeable = False
+#: 1 and ½ as 0-d float64 arrays (faster than Python floats in NumPy operations, same numbers)
+_ONE, _HALF = np.array(1.0), np.array(0.5)
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:
-    return np.asarray(0.5 * (cov + cov.swapaxes(-1, -2)), dtype=float)
+    return np.asarray(np.multiply(_HALF, cov + cov.swapaxes(-1, -2)), dtype=float)

@@ -14,6 +14,7 @@ and reports each matrix it had to change, so the caller can log an event.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,8 +93,8 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     ``λmax ≤ tr P``), else None. The common case, decided without an eigen-decomposition;
     :func:`repair_covariances` gives the same answer (no repair) for it. An exactly symmetric
     stack, as the filter leaves it, comes back as itself: ``(P + Pᵀ)/2`` would be ``P``."""
-    if not np.isfinite(cov).all():
-        return None
+    if not math.isfinite(np.add.reduce(cov, axis=None)) and not np.isfinite(cov).all():
+        return None  # (a finite sum has finite terms: the elementwise test only otherwise)
     transposed = cov.swapaxes(1, 2)
     if (cov == transposed).all():
         sym = cov
@@ -103,7 +104,7 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
             return None
         sym = 0.5 * (cov + transposed)
     trace = sym.trace(axis1=1, axis2=2)
-    shift = 2 * np.maximum(EIGEN_FLOOR_RATIO * trace, EIGEN_FLOOR_ABS)
+    shift = np.multiply(2, np.maximum(np.multiply(EIGEN_FLOOR_RATIO, trace), EIGEN_FLOOR_ABS))
     try:
         np.linalg.cholesky(sym - shift[:, None, None] * _eye(cov.shape[-1]))
     except np.linalg.LinAlgError:

@@ -77,6 +77,10 @@ class TeamBelief:
         self.learned: list[tuple[int, ZoneEstimate]] = []
         #: zones of a hazard map not yet learned (:meth:`map_zones`)
         self._mapped: list[ZoneEstimate] = []
+        #: whether a robot learned something or the leagues changed since knowledge was shared
+        self._unshared = True
+        #: the last link matrix seen (its bytes and shape) and its leagues
+        self._links_seen: tuple[bytes, object, list[list[int]]] | None = None
 
     def map_zones(self, zones: Iterable[ZoneEstimate]) -> None:
         """Zones the team knows before it starts (a hazard map): every robot learns them at the
@@ -99,7 +103,7 @@ class TeamBelief:
         if self.needs.zones:
             for attack in obs.attacks:
                 self._learn(attack.robot, ZoneEstimate.from_clue(attack.clue, obs.step))
-        events += self._regroup(components(obs.links), obs.step)
+        events += self._regroup(self._leagues_of(obs.links), obs.step)
         if self.last_step is not None:
             self.estimates = [self.predicted(k) for k in range(len(self.estimates))]
         self.last_step = obs.step
@@ -119,6 +123,16 @@ class TeamBelief:
             if self.silent_robot_watch is not None:
                 events += self.silent_robot_watch.observe(self, obs)
         return events
+
+    def _leagues_of(self, links: np.ndarray) -> list[list[int]]:
+        """The leagues of ``links`` (:func:`components`), unchanged while the links are."""
+        links = np.asarray(links)
+        key, shape, seen = links.tobytes(), (links.shape, links.dtype.str), self._links_seen
+        if seen is not None and seen[0] == key and seen[1] == shape:
+            return [list(league) for league in seen[2]]
+        leagues = components(links)
+        self._links_seen = (key, shape, [list(league) for league in leagues])
+        return leagues
 
     def _check_health(self, step: int) -> list[Event]:
         """Keep every league covariance symmetric positive definite; an event per repair."""
@@ -147,6 +161,7 @@ class TeamBelief:
     def _learn(self, robot: int, estimate: ZoneEstimate) -> None:
         if self.knowledge[robot].learn(estimate):
             self.learned.append((robot, estimate))
+            self._unshared = True
 
     def _regroup(self, leagues: list[list[int]], step: int) -> list[Event]:
         if leagues == self.leagues:  # the usual tick: same leagues, same estimates
@@ -173,6 +188,7 @@ class TeamBelief:
                 events.append(Event.league_split(step, league))
             estimates.append(estimate)
         self.leagues = leagues
+        self._unshared = True
         self.estimates = estimates
         self._predicted = [None] * len(estimates)
         self.league_of = np.empty(self.n_robots, dtype=int)
@@ -181,6 +197,9 @@ class TeamBelief:
         return events
 
     def _share_knowledge(self) -> None:
+        if not self._unshared:  # every league's members already hold the same knowledge
+            return
+        self._unshared = False
         for league in self.leagues:
             if len(league) < 2:
                 continue

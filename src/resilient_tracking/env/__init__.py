@@ -47,8 +47,8 @@ def parallel_env(
 ) -> TrackingParallelEnv:
     """The PettingZoo environment of ``scenario`` (a shipped name, a file or a loaded
     scenario); ``seed`` is the first episode's when ``reset`` is given none (default: the
-    scenario's). ``session_options``: ``steps``, ``expert``, ``max_zones``, ``reward`` (see
-    :func:`~resilient_tracking.env.options.make_session`)."""
+    scenario's). ``session_options``: ``steps``, ``expert``, ``max_zones``, ``reward``,
+    ``record`` (see :func:`~resilient_tracking.env.options.make_session`)."""
     session = make_session(scenario, **session_options)
     first = session.scenario.seed if seed is None else seed
     return TrackingParallelEnv(session, first, render_mode)

@@ -21,13 +21,23 @@ def make_session(
     expert: str = "failure_aware",
     max_zones: int = MAX_ZONES,
     reward: Callable[[StepOutcome], float] | None = None,
+    record: bool = True,
 ) -> TrackingSession:
     """A session of ``scenario`` (a shipped name, a file or a loaded scenario), ``steps``
-    replacing the scenario's number of steps when given."""
+    replacing the scenario's number of steps when given; ``record=False`` keeps no run tables
+    (faster; the session then has no ``result`` and the environment does not render)."""
     loaded = scenario if isinstance(scenario, Scenario) else scenarios.load(scenario)
     if steps is not None:
         loaded = loaded.with_overrides(steps=steps)
-    return TrackingSession(loaded, expert=expert, max_zones=max_zones, reward=reward)
+    return TrackingSession(loaded, expert=expert, max_zones=max_zones, reward=reward, record=record)
+
+
+def check_render_mode(render_mode: str | None, session: TrackingSession) -> None:
+    """Refuse a render mode the environments do not have, or one without run tables to draw."""
+    if render_mode is not None and render_mode not in RENDER_MODES:
+        raise ValueError(f"render_mode: expected one of {RENDER_MODES}, got {render_mode!r}")
+    if render_mode is not None and not session.record:
+        raise ValueError("render_mode: rendering draws the run tables, which record=False drops")
 
 
 class Seeds:

@@ -8,7 +8,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from resilient_tracking.env.options import RENDER_MODES, Seeds
+from resilient_tracking.env.options import RENDER_MODES, Seeds, check_render_mode
 from resilient_tracking.env.render import map_frame
 from resilient_tracking.env.session import TrackingSession
 from resilient_tracking.env.spaces import velocity_space, view_space
@@ -31,8 +31,7 @@ class TrackingParallelEnv(ParallelEnv):
     metadata = {"name": "resilient_tracking_v0", "render_modes": list(RENDER_MODES)}
 
     def __init__(self, session: TrackingSession, seed: int, render_mode: str | None = None):
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ValueError(f"render_mode: expected one of {RENDER_MODES}, got {render_mode!r}")
+        check_render_mode(render_mode, session)
         self.session = session
         self.render_mode = render_mode
         self._seeds = Seeds(seed)

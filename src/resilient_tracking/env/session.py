@@ -39,8 +39,11 @@ class TrackingSession:
         expert: str = "failure_aware",
         max_zones: int = MAX_ZONES,
         reward: Callable[[StepOutcome], float] | None = None,
+        record: bool = True,
     ):
         self.scenario = scenario
+        #: whether episodes record the run tables (``False``: faster; no ``result``, no render)
+        self.record = record
         self.expert = expert
         self.reward = reward or TrackingReward()
         self.shape = ViewShape(len(scenario.robots), len(scenario.targets), max_zones)
@@ -55,7 +58,7 @@ class TrackingSession:
 
     def reset(self, seed: int) -> None:
         """A new episode at ``seed``: the world at step 0, sensed by the team."""
-        self.stepper = EpisodeStepper(self.scenario, self.expert, seed)
+        self.stepper = EpisodeStepper(self.scenario, self.expert, seed, record=self.record)
         self._expert_decision = None
         self.attacks = 0
         obs = self.stepper.sense()
@@ -129,12 +132,11 @@ class TrackingSession:
         stepper = self.running
         obs = stepper.obs
         assert obs is not None
-        mse = float(stepper.truth_rows.team.last("mse")) if stepper.steps_done else float("nan")
         return {
             "step": int(obs.step),
             "time": float(obs.time),
             "trace": self.trace,
-            "mse": mse,
+            "mse": stepper.last_mse,
             "attacks": self.attacks,
             "n_sensing_failed": int(obs.n_robots - np.count_nonzero(obs.sensing_ok)),
             "n_comm_failed": int(obs.n_robots - np.count_nonzero(obs.comm_ok)),

@@ -8,7 +8,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from resilient_tracking.env.options import RENDER_MODES, Seeds, make_session
+from resilient_tracking.env.options import RENDER_MODES, Seeds, check_render_mode, make_session
 from resilient_tracking.env.render import map_frame
 from resilient_tracking.env.spaces import velocity_space, view_space
 
@@ -32,9 +32,8 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
         render_mode: str | None = None,
         **session_options: Any,
     ):
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ValueError(f"render_mode: expected one of {RENDER_MODES}, got {render_mode!r}")
         self.session = make_session(scenario, **session_options)
+        check_render_mode(render_mode, self.session)
         self.render_mode = render_mode
         self._seeds = Seeds(self.session.scenario.seed if seed is None else seed)
         self.observation_space = view_space(  # type: ignore[assignment]

@@ -24,5 +24,6 @@ def clip_velocities(
     finite = np.isfinite(controls).all(axis=-1, keepdims=True)
     u = controls if finite.all() else np.where(finite, controls, 0.0)
     u = np.minimum(np.maximum(u, -bound), bound)
-    nxt = np.minimum(np.maximum(positions + u * dt, lower), upper)
-    return (nxt - positions) / dt
+    # (ufuncs called by name: faster than the operators with a Python float, same numbers)
+    nxt = np.minimum(np.maximum(positions + np.multiply(u, dt), lower), upper)
+    return np.divide(nxt - positions, dt)

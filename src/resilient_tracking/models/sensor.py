@@ -20,6 +20,7 @@ variance is ``R(d) = exp(shape · d) / peak``; noise is drawn with that variance
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Annotated, Any, ClassVar, Literal
@@ -51,10 +52,20 @@ PLAN_EPS = 0.05
 #: Relative step of :meth:`MeasurementModel.hessian`'s central differences (of the distance).
 HESSIAN_STEP = 1e-5
 
+_MIN_RANGE_SQUARED = np.array(MIN_RANGE**2)
+
+
+#: π and 2π as 0-d float64 arrays: NumPy combines one with a float64 array faster than a
+#: Python float (the same operation, so the same numbers)
+_PI, _TWO_PI = np.array(np.pi), np.array(2.0 * np.pi)
+
 
 def wrap_angle(a: FloatArray | float) -> FloatArray | float:
     """Wrap angles to [−π, π)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+    x = np.asarray(a)
+    if x.dtype == np.float64:  # the usual case, with the constants as float64 arrays
+        return np.subtract(np.remainder(np.add(x, _PI), _TWO_PI), _PI)  # type: ignore[no-any-return]
+    return (x + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def range_hessian(delta: FloatArray) -> FloatArray:
@@ -202,6 +213,16 @@ class MeasurementModel(ABC):
         hess = np.stack(columns, axis=-1)  # (..., DIM, 2, 2): [..., c, i, j] = ∂H_ci/∂p_j
         return np.asarray(0.5 * (hess + np.swapaxes(hess, -1, -2)), dtype=float)
 
+    def linearise(
+        self, robot: FloatArray, target: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """What the EKF linearises with, at once: :meth:`predict`, :meth:`jacobian` and
+        :meth:`noise_variance` at :meth:`noise_distance`; a model may share work between them
+        (the same numbers as the three calls)."""
+        h = self.predict(robot, target)
+        variance = self.noise_variance(self.noise_distance(robot, target, h))
+        return h, self.jacobian(robot, target), variance
+
     @abstractmethod
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
         """Whether a target at this distance is measured at all."""
@@ -286,7 +307,25 @@ class RangeBearingSensor(MeasurementModel):
 
     def predict(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Noise-free measurement ``[‖p − x‖, atan2(Δy, Δx)]``; arrays broadcast over rows."""
+        return self._predict(np.asarray(target, dtype=float) - np.asarray(robot, dtype=float))
+
+    def linearise(
+        self, robot: FloatArray, target: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`predict`, :meth:`jacobian` and the noise variance at the predicted range, from
+        one difference ``target − robot`` (a subclass that replaces one of them: its own)."""
+        cls = type(self)
+        if not (
+            cls.predict is RangeBearingSensor.predict
+            and cls.jacobian is RangeBearingSensor.jacobian
+            and cls.noise_distance is RangeBearingSensor.noise_distance
+        ):
+            return super().linearise(robot, target)
         delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        h = self._predict(delta)
+        return h, self._jacobian(delta), self.noise_variance(h[..., 0])
+
+    def _predict(self, delta: FloatArray) -> FloatArray:
         out = np.empty(delta.shape)
         out[..., 0] = np.hypot(delta[..., 0], delta[..., 1])
         out[..., 1] = np.arctan2(delta[..., 1], delta[..., 0])
@@ -296,10 +335,20 @@ class RangeBearingSensor(MeasurementModel):
         """Per-channel variance ``[R_range(d), R_bearing(d)]``."""
         d = np.asarray(distance, dtype=float)
         out = np.empty(d.shape + (2,))
+        range_shape, range_peak, bearing_shape, bearing_peak, cap = self._constants
         # capped exponent: far beyond the sensor's reach the variance is huge but finite
-        out[..., 0] = np.exp(np.minimum(self.range_shape * d, MAX_EXPONENT)) / self.range_peak
-        out[..., 1] = np.exp(np.minimum(self.bearing_shape * d, MAX_EXPONENT)) / self.bearing_peak
+        out[..., 0] = np.divide(np.exp(np.minimum(np.multiply(range_shape, d), cap)), range_peak)
+        out[..., 1] = np.divide(
+            np.exp(np.minimum(np.multiply(bearing_shape, d), cap)), bearing_peak
+        )
         return out
+
+    @functools.cached_property
+    def _constants(self) -> tuple[FloatArray, ...]:
+        """The channels' shapes and peaks and ``MAX_EXPONENT`` as 0-d float64 arrays (faster
+        in NumPy operations than Python floats, the same numbers)."""
+        values = (self.range_shape, self.range_peak, self.bearing_shape, self.bearing_peak)
+        return tuple(np.array(float(v)) for v in (*values, MAX_EXPONENT))
 
     def noise_distance(
         self, robot: FloatArray, target: FloatArray, measurement: FloatArray
@@ -310,9 +359,11 @@ class RangeBearingSensor(MeasurementModel):
     def jacobian(self, robot: FloatArray, target: FloatArray) -> FloatArray:
         """Jacobian of the measurement w.r.t. the target position: rows ``δᵀ/d`` (range) and
         ``[−δy, δx]/d²`` (bearing), ``d`` clamped at ``MIN_RANGE``; broadcasts, ``(..., 2, 2)``."""
-        delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
+        return self._jacobian(np.asarray(target, dtype=float) - np.asarray(robot, dtype=float))
+
+    def _jacobian(self, delta: FloatArray) -> FloatArray:
         dx, dy = delta[..., 0], delta[..., 1]
-        d2 = np.maximum(dx * dx + dy * dy, MIN_RANGE**2)
+        d2 = np.maximum(dx * dx + dy * dy, _MIN_RANGE_SQUARED)
         d = np.sqrt(d2)
         out = np.empty(d.shape + (2, 2))
         out[..., 0, :] = delta / d[..., None]  # range row [dx, dy] / d

@@ -54,17 +54,10 @@ def decision_problems(
         )
         controls = None
     if controls is not None:
-        finite = np.isfinite(controls).all(axis=1)
         lower, upper = config.velocity_bounds(list(range(m)), positions)
-        with np.errstate(invalid="ignore"):
-            outside = (controls < lower - BOUND_TOLERANCE) | (controls > upper + BOUND_TOLERANCE)
-        for i in np.flatnonzero(~finite | outside.any(axis=1)):
-            if not finite[i]:
-                kind, what = "not_finite", "not finite"
-            else:
-                bounds = f"[{lower[i].tolist()}, {upper[i].tolist()}]"
-                kind, what = "out_of_bounds", f"outside its velocity bounds {bounds}"
-            problems.append(DecisionProblem(int(i), kind, f"control {controls[i].tolist()} {what}"))
+        # the usual decision, every control finite and within its bounds, passes in one test
+        if not (np.isfinite(controls).all() and _within(controls, lower, upper)):
+            problems += _control_problems(controls, lower, upper)
     modes = decision.modes
     if not (isinstance(modes, list | tuple) and len(modes) == m):
         problems.append(
@@ -73,3 +66,27 @@ def decision_problems(
     elif not all(isinstance(x, str) for x in modes):
         problems.append(DecisionProblem(None, "modes", "modes must be strings"))
     return controls, problems
+
+
+def _within(controls: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
+    """Whether every (finite) control is within its bounds, to the tolerance."""
+    lo, hi = np.subtract(lower, BOUND_TOLERANCE), np.add(upper, BOUND_TOLERANCE)
+    return bool(((controls >= lo) & (controls <= hi)).all())
+
+
+def _control_problems(
+    controls: np.ndarray, lower: np.ndarray, upper: np.ndarray
+) -> list[DecisionProblem]:
+    """A problem for each robot whose control is not finite or outside its bounds."""
+    problems = []
+    finite = np.isfinite(controls).all(axis=1)
+    with np.errstate(invalid="ignore"):
+        outside = (controls < lower - BOUND_TOLERANCE) | (controls > upper + BOUND_TOLERANCE)
+    for i in np.flatnonzero(~finite | outside.any(axis=1)):
+        if not finite[i]:
+            kind, what = "not_finite", "not finite"
+        else:
+            bounds = f"[{lower[i].tolist()}, {upper[i].tolist()}]"
+            kind, what = "out_of_bounds", f"outside its velocity bounds {bounds}"
+        problems.append(DecisionProblem(int(i), kind, f"control {controls[i].tolist()} {what}"))
+    return problems

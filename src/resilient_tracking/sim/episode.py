@@ -14,6 +14,7 @@ naming the quantity and the step, so no table ever holds one.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -31,6 +32,7 @@ from resilient_tracking.runs.records import EpisodeResult, join_tables
 from resilient_tracking.runs.team_recorder import TeamRecorder
 from resilient_tracking.runs.truth_recorder import TruthRecorder
 from resilient_tracking.scenario import Scenario
+from resilient_tracking.sim.metrics import mse
 from resilient_tracking.team import TeamStep, build_team
 from resilient_tracking.world import World
 from resilient_tracking.world.targets import TargetTruth
@@ -51,7 +53,8 @@ def check_finite(step: int, quantities: dict[str, Any]) -> None:
     """Raise :class:`NonFiniteError` naming the first of ``quantities`` (name: number or
     array) that holds a number that is not finite."""
     for name, value in quantities.items():
-        if not np.isfinite(value).all():
+        # a finite sum has finite terms: the elementwise test only when the sum is not finite
+        if not math.isfinite(np.add.reduce(value, axis=None)) and not np.isfinite(value).all():
             raise NonFiniteError(f"step {step}: {name} is not finite")
 
 
@@ -81,14 +84,21 @@ class EpisodeStepper:
         policy: str,
         seed: int,
         fault_hook: FaultHook | None = None,
+        record: bool = True,
     ):
         self.scenario = scenario
         self.policy_name = policy
         self.seed = seed
         self.world = World(scenario, seed)
         self.team = build_team(scenario, policy, seed, self.world.target_states, fault_hook)
-        self.team_rows = TeamRecorder(self.world.n_robots, len(self.world.targets), scenario.steps)
-        self.truth_rows = TruthRecorder(len(self.world.targets), scenario.steps, self.world.zones)
+        #: whether each step's rows are recorded (``False``: no tables, for a caller that
+        #: reads none, such as a learning environment that never renders)
+        self.record = record
+        steps = scenario.steps if record else 0
+        self.team_rows = TeamRecorder(self.world.n_robots, len(self.world.targets), steps)
+        self.truth_rows = TruthRecorder(len(self.world.targets), steps, self.world.zones)
+        #: the MSE of the team's estimate at the last step acted (NaN before the first)
+        self.last_mse = float("nan")
         #: steps acted (and recorded) so far
         self.steps_done = 0
         #: the observation of the current step, once sensed
@@ -111,9 +121,13 @@ class EpisodeStepper:
             raise RuntimeError("EpisodeStepper.act: sense the step first")
         out = self.team.decide(obs, self._events, decision)
         applied = self.world.step(out.controls)
-        self.team_rows.step(obs, out, applied, self.team.belief)
         estimate = self.team.belief.team_estimate()
-        self.truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
+        if self.record:
+            self.team_rows.step(obs, out, applied, self.team.belief)
+            self.truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
+            self.last_mse = float(self.truth_rows.team.last("mse"))
+        else:
+            self.last_mse = mse(estimate.mean[:, :2], truth[:, :2])
         check_finite(
             obs.step,
             {
@@ -122,7 +136,7 @@ class EpisodeStepper:
                 "a target's true state": truth,
                 "the team's target estimate": estimate.mean,
                 "the team's target covariance": estimate.cov,
-                "the MSE of the team's estimate": self.truth_rows.team.last("mse"),
+                "the MSE of the team's estimate": self.last_mse,
             },
         )
         self.obs, self._truth, self._events = None, None, []
@@ -131,6 +145,8 @@ class EpisodeStepper:
 
     def result(self, wall: float = float("nan")) -> EpisodeResult:
         """The tables of the steps acted so far, with the manifest (``wall``: seconds taken)."""
+        if not self.record:
+            raise RuntimeError("this episode records no tables (record=False)")
         manifest = episode_manifest(
             self.scenario, self.seed, self.policy_name, self.steps_done, wall
         )

@@ -25,7 +25,8 @@ def _pdf(x: np.ndarray, mu: np.ndarray, inv: np.ndarray, norm: float) -> np.ndar
     """:func:`gaussian_pdf` with ``Σ⁻¹`` and ``2π √det Σ`` given, at the rows of ``x`` (2-D)."""
     diff = x - mu
     m2 = np.einsum("ni,ij,nj->n", diff, inv, diff)
-    return np.exp(-0.5 * m2) / norm
+    # (ufuncs called by name: faster than the operators with a Python float, same numbers)
+    return np.divide(np.exp(np.multiply(-0.5, m2)), norm)
 
 
 @HAZARDS.register("gaussian")
@@ -55,8 +56,8 @@ class GaussianHazardModel(HazardModel):
     def probability(self, positions: np.ndarray, step: int, dt: float) -> np.ndarray:
         """Attack probability at each position (the same at every step)."""
         density = _pdf(positions, self.mu, self._inv, self._norm)
-        rate = self.kappa * self.f_act * dt * density
-        return 1.0 - np.exp(-rate)
+        rate = np.multiply(self.kappa * self.f_act * dt, density)
+        return np.subtract(1.0, np.exp(np.negative(rate)))
 
 
 @HAZARDS.register("disk")

@@ -56,7 +56,8 @@ class WaypointsMotion(TargetMotion):
                 if self.spec.loop and self._next_waypoint == len(points):
                     self._next_waypoint = 0
             else:
-                self.position = self.position + delta / dist * budget
+                # (ufuncs by name: faster than the operators with a Python float, same numbers)
+                self.position = self.position + np.multiply(np.divide(delta, dist), budget)
                 budget = 0.0
         self.velocity = self._waypoint_velocity()
 
@@ -65,7 +66,9 @@ class WaypointsMotion(TargetMotion):
             return np.zeros(2)
         delta = self._points[self._next_waypoint] - self.position
         dist = vector_length(delta)
-        return np.zeros(2) if dist == 0 else delta / dist * self.spec.speed
+        if dist == 0:
+            return np.zeros(2)
+        return np.multiply(np.divide(delta, dist), self.spec.speed)  # delta / dist * speed
 
 
 @MOTIONS.register("circle")

@@ -70,6 +70,7 @@ class World:
         self.zones = make_zones(scenario, seed)
         self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
+        self._lower, self._upper = scenario.workspace.lower, scenario.workspace.upper
         self.targets = [TargetTruth(t) for t in scenario.targets]
         #: the targets whose motion reacts to the world, and the zones as they see them
         self._reacting = [t for t in self.targets if t.reacts]
@@ -161,9 +162,8 @@ class World:
 
     def clip_controls(self, controls: np.ndarray) -> np.ndarray:
         """Velocity bounds per component, then keep the next position inside the workspace."""
-        ws = self.scenario.workspace
         return clip_velocities(
-            self.robot_positions, controls, self.u_max, ws.lower, ws.upper, self.dt
+            self.robot_positions, controls, self.u_max, self._lower, self._upper, self.dt
         )
 
     def step(self, controls: np.ndarray) -> np.ndarray:
@@ -175,8 +175,8 @@ class World:
         u = np.asarray(controls, dtype=float)
         if u.shape != (self.n_robots, 2):
             raise ValueError(f"controls have shape {u.shape}, expected ({self.n_robots}, 2)")
-        bad = ~np.isfinite(u).all(axis=1)
-        if bad.any():
+        if not np.isfinite(u).all():
+            bad = ~np.isfinite(u).all(axis=1)
             log.warning(
                 "step %d: the controls of robots %s are not finite; they hold position",
                 self.step_index,
