@@ -90,7 +90,7 @@ class CircleFitParams(Strict):
 
 class LureGuardParams(Strict):
     """When a target is suspected of luring robots into danger, and how far robots then keep
-    from it (the ``lure_guard`` of the failure-aware policy, docs/model.md §6)."""
+    from it (the ``lure_guard`` of the failure-aware policy, docs/model.md §6.1)."""
 
     window: int = Field(
         20,
@@ -269,7 +269,7 @@ class FailureAwareParams(Strict):
             "Beyond the paper: suspect targets that linger after moving, or stand at a known"
             " zone's keep-out disc, of luring robots into danger (from the league's estimate"
             " only); suspicion lasts the episode, and the league keeps lure.standoff from each"
-            " suspect target. false, the default: the paper's team (docs/model.md §6)."
+            " suspect target. false, the default: the paper's team (docs/model.md §6.1)."
         ),
     )
     lure: LureGuardParams = Field(

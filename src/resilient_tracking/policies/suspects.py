@@ -1,4 +1,4 @@
-"""Suspect targets: targets a league believes may be luring robots into danger (docs/model.md §6).
+"""Suspect targets: targets a league believes may be luring robots into danger (docs/model.md §6.1).
 
 From the league's target estimate only (never the world), a target becomes suspect when
 
