@@ -30,6 +30,7 @@ EventName = Literal[
     "zone_learned",
     "zone_suspected",
     "zone_inferred",
+    "target_suspected",
     "solver_fallback",
     "invalid_decision",
 ]
@@ -55,7 +56,8 @@ class Event:
     #: ``unknown``); empty otherwise
     persistence: str = ""
     #: why an attack happened: ``hazard`` (the zone's draw) or ``jamming`` (links cut); what
-    #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…)
+    #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…); why
+    #: a target became suspect (``linger``, ``zone``)
     cause: str = ""
     #: how a zone became known: ``attack``, ``broadcast``, ``circle``, ``silence``
     source: str = ""
@@ -158,6 +160,16 @@ class Event:
             f" residual={residual:.4f} arc={arc:.2f} n={samples}"
         )
         return cls(step, robot, "zone_inferred", detail, kind="comm", source="circle")
+
+    @classmethod
+    def target_suspected(
+        cls, step: int, robot: int, target: int, cause: str, x: float, y: float
+    ) -> Event:
+        """``robot``'s league suspects target ``target`` (estimated at ``(x, y)``) of luring it
+        into danger; ``cause``: ``linger`` (it stopped after moving) or ``zone`` (it stands at
+        a known zone's keep-out disc)."""
+        detail = f"target {target} ({cause}) at ({x:.3f}, {y:.3f})"
+        return cls(step, robot, "target_suspected", detail, cause=cause)
 
     @classmethod
     def solver_fallback(

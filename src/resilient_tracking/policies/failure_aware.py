@@ -43,6 +43,7 @@ from resilient_tracking.policies.base import Decision, register_policy
 from resilient_tracking.policies.exposure import ExposureLedger
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
+from resilient_tracking.policies.suspects import SuspectWatch
 from resilient_tracking.team_config import TeamConfig
 
 #: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``),
@@ -80,6 +81,10 @@ class FailureAwarePolicy(PlanningPolicy):
         self.exposure = ExposureLedger(params.exposure_horizon if params.hazard_guard else 0)
         #: circling direction (1 counter-clockwise, −1 clockwise) of each robot in Alg. 4
         self._circling: dict[int, float] = {}
+        #: targets each robot suspects of luring it into danger (with ``lure_guard``)
+        self.suspects = (
+            SuspectWatch(config.n_robots, params.lure, config.dt) if params.lure_guard else None
+        )
 
     # ------------------------------------------------------------------ the tick
 
@@ -127,8 +132,17 @@ class FailureAwarePolicy(PlanningPolicy):
             mode = "individual" if alone else "cooldown" if cooling else "league"
             rows = self._zone_rows(knowledge, weights[4], alone, eps_sensing)
             self._record_exposure(rows, robots, obs)
+            sensing_rows = rows[0]
+            if self.suspects is not None:
+                # keep clear of suspect targets as of zones (eq. 7c rows after the zones')
+                estimate = belief.estimates[k]
+                decision.events += self.suspects.observe(obs.step, robots, estimate, sensing_rows)
+                suspect_rows = self.suspects.rows(robots, belief.predicted(k), self.beta1)
+                sensing_rows = np.vstack([sensing_rows, suspect_rows])
             sensing = obs.sensing_ok[robots].astype(float)
-            q = self.tracking_inputs(belief, obs, robots, k, weights[:4], sensing, *rows[:2])
+            q = self.tracking_inputs(
+                belief, obs, robots, k, weights[:4], sensing, sensing_rows, rows[1]
+            )
             decision.controls[robots] = self.solve(robots, q, obs.step, decision)
             self.last_weights[robots] = weights
             for i in robots:

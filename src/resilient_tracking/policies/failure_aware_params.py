@@ -10,6 +10,7 @@ from pydantic import Field
 from resilient_tracking.spec import (
     MAX_POSITION_STD,
     MAX_RATIO,
+    MAX_SPEED,
     MAX_STEP_COUNT,
     Length,
     PositiveLength,
@@ -84,6 +85,71 @@ class CircleFitParams(Strict):
         le=MAX_STEP_COUNT,
         description="Steps without any working link before a teammate is watched.",
         json_schema_extra={"unit": "steps"},
+    )
+
+
+class LureGuardParams(Strict):
+    """When a target is suspected of luring robots into danger, and how far robots then keep
+    from it (the ``lure_guard`` of the failure-aware policy, docs/model.md §6.1)."""
+
+    window: int = Field(
+        20,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description=(
+            "Steps over which a target's speed is measured: the distance between the mean"
+            " estimated positions of the window's two halves, over the time between them (the"
+            " velocity estimate alone is too noisy)."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
+    linger_speed: float = Field(
+        0.08,
+        gt=0,
+        le=MAX_SPEED,
+        description="A target whose speed over the window is below this lingers.",
+        json_schema_extra={"unit": "m/s"},
+    )
+    moving_speed: float = Field(
+        0.1,
+        gt=0,
+        le=MAX_SPEED,
+        description=(
+            "A target counts as having moved once its speed over the window exceeded this;"
+            " only a target that moved can linger."
+        ),
+        json_schema_extra={"unit": "m/s"},
+    )
+    position_std: PositiveLength = Field(
+        0.15,
+        description=(
+            "Largest standard deviation (largest axis) of a target's position estimate at which"
+            " its speed over the window is trusted."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    linger_steps: int = Field(
+        5,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Consecutive lingering steps after which a target is suspect.",
+        json_schema_extra={"unit": "steps"},
+    )
+    zone_margin: Length = Field(
+        0.3,
+        description=(
+            "A target whose estimated position lies within this of the safe radius r_safe of a"
+            " known zone's eq. 7c row (or inside it) is suspect."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    standoff: PositiveLength = Field(
+        1.2,
+        description=(
+            "Radius of the keep-out disc around a suspect target's predicted position (an eq. 7c"
+            " row at risk level ε1 with the target's position covariance)."
+        ),
+        json_schema_extra={"unit": "m"},
     )
 
 
@@ -196,4 +262,16 @@ class FailureAwareParams(Strict):
             " fit replaces it; 0 turns it off."
         ),
         json_schema_extra={"unit": "m"},
+    )
+    lure_guard: bool = Field(
+        False,
+        description=(
+            "Beyond the paper: suspect targets that linger after moving, or stand at a known"
+            " zone's keep-out disc, of luring robots into danger (from the league's estimate"
+            " only); suspicion lasts the episode, and the league keeps lure.standoff from each"
+            " suspect target. false, the default: the paper's team (docs/model.md §6.1)."
+        ),
+    )
+    lure: LureGuardParams = Field(
+        LureGuardParams(), description="When a target is suspect and how far robots keep from it."
     )

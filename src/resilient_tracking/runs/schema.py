@@ -178,7 +178,8 @@ EVENTS = Table(
             "str",
             "",
             "attack: hazard (the zone's draw) or jamming; invalid_decision: what was wrong"
-            " (not_finite, out_of_bounds, shape, type, modes); else empty",
+            " (not_finite, out_of_bounds, shape, type, modes); target_suspected: linger or"
+            " zone; else empty",
         ),
         _c("source", "str", "", "zone_*: attack, broadcast, circle or silence, else empty"),
         _c("fallback", "str", "", "solver_fallback: the rung taken (safe, ...), else empty"),
