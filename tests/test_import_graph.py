@@ -34,13 +34,14 @@ def _is_type_checking(test: ast.expr) -> bool:
     )
 
 
-def _imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
-    """Every import statement of a tree, without those under ``if TYPE_CHECKING:``."""
+def _imports(tree: ast.AST, hints: bool = False) -> list[ast.Import | ast.ImportFrom]:
+    """Every import statement of a tree, without those under ``if TYPE_CHECKING:`` unless
+    ``hints``."""
     found: list[ast.Import | ast.ImportFrom] = []
     stack: list[ast.AST] = [tree]
     while stack:
         node = stack.pop()
-        if isinstance(node, ast.If) and _is_type_checking(node.test):
+        if not hints and isinstance(node, ast.If) and _is_type_checking(node.test):
             stack.extend(node.orelse)
             continue
         if isinstance(node, ast.Import | ast.ImportFrom):
@@ -49,12 +50,12 @@ def _imports(tree: ast.AST) -> list[ast.Import | ast.ImportFrom]:
     return found
 
 
-def imported(path: Path, modules: set[str]) -> set[str]:
+def imported(path: Path, modules: set[str], hints: bool = False) -> set[str]:
     """The package's modules that the file at ``path`` imports (and the packages above them)."""
     name = module_name(path)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     targets: set[str] = set()
-    for node in _imports(ast.parse(path.read_text())):
+    for node in _imports(ast.parse(path.read_text()), hints):
         if isinstance(node, ast.Import):
             targets |= {a.name for a in node.names}
             continue
@@ -73,9 +74,10 @@ def imported(path: Path, modules: set[str]) -> set[str]:
     return {m for m in out if m in modules and m != name and m != ROOT_NAME}
 
 
-def import_graph() -> dict[str, set[str]]:
+def import_graph(hints: bool = False) -> dict[str, set[str]]:
+    """Each module's imports; ``hints``: with those under ``if TYPE_CHECKING:`` too."""
     files = {module_name(p): p for p in PACKAGE.rglob("*.py")}
-    return {name: imported(path, set(files)) for name, path in files.items()}
+    return {name: imported(path, set(files), hints) for name, path in files.items()}
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -119,6 +121,11 @@ def test_the_package_has_no_import_cycle():
     assert cycles(graph) == []
 
 
+def test_type_hints_close_no_import_cycle_either():
+    # a cycle through type hints alone still means two modules cannot be read apart
+    assert cycles(import_graph(hints=True)) == []
+
+
 def test_the_scan_finds_a_cycle_and_ignores_type_checking(tmp_path, monkeypatch):
     pkg = tmp_path / "resilient_tracking"
     (pkg / "sub").mkdir(parents=True)
@@ -135,6 +142,7 @@ def test_the_scan_finds_a_cycle_and_ignores_type_checking(tmp_path, monkeypatch)
     graph = import_graph()
     assert graph["resilient_tracking.a"] == {"resilient_tracking.sub", "resilient_tracking.sub.b"}
     assert cycles(graph) == []
+    assert len(cycles(import_graph(hints=True))) == 1
     (pkg / "c.py").write_text("import resilient_tracking.a\n")
     assert cycles(import_graph()) == [
         ["resilient_tracking.a", "resilient_tracking.c", "resilient_tracking.sub.b"]

@@ -13,17 +13,23 @@ The team's belief runs this watch at the end of its update when the policy needs
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, cast
+from typing import Protocol, cast
 
 import numpy as np
 
 from resilient_tracking.belief.circle_fit import CircleGates, CircleWatcher, zone_from_circle
-from resilient_tracking.belief.knowledge import ZoneEstimate
+from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 
-if TYPE_CHECKING:
-    from resilient_tracking.belief.team_belief import TeamBelief
+
+class LearningBelief(Protocol):
+    """What the watch asks of the team's belief (``TeamBelief``): a league's shared knowledge,
+    and a way to add what it inferred."""
+
+    def league_knowledge(self, league: list[int]) -> KnowledgeBase: ...
+
+    def learn(self, robot: int, estimate: ZoneEstimate) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -55,7 +61,7 @@ class SilentRobotWatch:
         #: robots that had no link at the last tick
         self._silent: set[int] = set()
 
-    def observe(self, belief: TeamBelief, obs: TeamObservation) -> list[Event]:
+    def observe(self, belief: LearningBelief, obs: TeamObservation) -> list[Event]:
         """Watch this tick's silent robots; learn what they reveal; one event per finding."""
         s = self.settings
         events: list[Event] = []
@@ -87,7 +93,7 @@ class SilentRobotWatch:
         return events
 
     def _suspect_jammer(
-        self, belief: TeamBelief, obs: TeamObservation, robot: int, listeners: list[int]
+        self, belief: LearningBelief, obs: TeamObservation, robot: int, listeners: list[int]
     ) -> list[Event]:
         """A teammate within radio range fell silent: a jammer is near where it is. Until its
         circle is fitted, the league keeps clear of a provisional comm zone there, unless one

@@ -11,15 +11,25 @@ scenario selects it with ``hazard: {model: name, ...}`` (or ``model: package.mod
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from resilient_tracking.registry import Registry
-from resilient_tracking.scenario import HazardSpec
+from resilient_tracking.scenario import CommZone, HazardSpec, SensingZone
 
-if TYPE_CHECKING:
-    from resilient_tracking.world.zones import TrueZone
+
+class HazardZone(Protocol):
+    """What a hazard model is built from: a zone as it truly is in the episode
+    (:class:`~resilient_tracking.world.zones.TrueZone`)."""
+
+    #: prior mean and covariance of the zone's centre
+    mu: np.ndarray
+    sigma: np.ndarray
+    #: the centre drawn for the episode
+    center: np.ndarray
+    #: the zone's scenario section
+    spec: SensingZone | CommZone
 
 
 class HazardModel(ABC):
@@ -29,9 +39,9 @@ class HazardModel(ABC):
     Spec: ClassVar[type[HazardSpec]]
 
     @classmethod
-    def from_zone(cls, spec: Any, zone: TrueZone) -> HazardModel:
-        """The model for ``zone`` (its prior ``mu``, ``sigma``, true ``center``, ``size``,
-        ``kind`` and scenario ``spec``) with the parameters ``spec`` (a ``Spec``)."""
+    def from_zone(cls, spec: Any, zone: HazardZone) -> HazardModel:
+        """The model for ``zone`` (its prior ``mu``, ``sigma``, true ``center`` and scenario
+        ``spec``) with the parameters ``spec`` (a ``Spec``)."""
         raise NotImplementedError(f"{cls.__name__} must define from_zone")
 
     @abstractmethod

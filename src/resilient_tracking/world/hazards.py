@@ -4,15 +4,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from resilient_tracking.scenario import DiskHazard, GaussianHazard, SensingZone
-from resilient_tracking.world.hazard_model import HAZARDS, HazardModel
-
-if TYPE_CHECKING:
-    from resilient_tracking.world.zones import TrueZone
+from resilient_tracking.world.hazard_model import HAZARDS, HazardModel, HazardZone
 
 
 def gaussian_pdf(x: np.ndarray, mu: np.ndarray, sigma: np.ndarray) -> np.ndarray:
@@ -49,7 +45,7 @@ class GaussianHazardModel(HazardModel):
         object.__setattr__(self, "_norm", 2 * math.pi * math.sqrt(np.linalg.det(self.sigma)))
 
     @classmethod
-    def from_zone(cls, spec: GaussianHazard, zone: TrueZone) -> GaussianHazardModel:
+    def from_zone(cls, spec: GaussianHazard, zone: HazardZone) -> GaussianHazardModel:
         """The model over the zone's prior ``N(μ, Σ)``."""
         return cls(zone.mu, zone.sigma, spec.f_act, spec.kappa)
 
@@ -73,7 +69,7 @@ class DiskHazardModel(HazardModel):
     p_hit: float
 
     @classmethod
-    def from_zone(cls, spec: DiskHazard, zone: TrueZone) -> DiskHazardModel:
+    def from_zone(cls, spec: DiskHazard, zone: HazardZone) -> DiskHazardModel:
         """The disk around the true center: a sensing zone's radius; a comm zone, which has
         none, acts within its recovery region's scale ``m_recover · √λmax(Σ)``."""
         if isinstance(zone.spec, SensingZone):
