@@ -27,9 +27,13 @@ class LearningBelief(Protocol):
     """What the watch asks of the team's belief (``TeamBelief``): a league's shared knowledge,
     and a way to add what it inferred."""
 
-    def league_knowledge(self, league: list[int]) -> KnowledgeBase: ...
+    def league_knowledge(self, league: list[int]) -> KnowledgeBase:
+        """The knowledge the members of ``league`` share."""
+        ...
 
-    def learn(self, robot: int, estimate: ZoneEstimate) -> None: ...
+    def learn(self, robot: int, estimate: ZoneEstimate) -> None:
+        """Add what ``robot`` inferred; shared at the next tick."""
+        ...
 
 
 @dataclass(frozen=True)
