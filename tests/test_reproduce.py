@@ -223,6 +223,18 @@ def test_adversarial_experiment_runs_three_teams_on_each_adversarial_scenario():
         assert scenario.estimator.type == "ekf"
 
 
+def test_adversarial_figures_are_bands_per_scenario_of_its_three_teams(tmp_path):
+    from resilient_tracking.experiments.report_figures import figure_jobs
+
+    exp = catalog()["adversarial"]
+    labels = [v.label for _, variants in exp.generated() for v in variants]
+    jobs = figure_jobs(exp, {label: [] for label in labels}, pd.DataFrame(), tmp_path)
+    bands = {job.path.name: job for job in jobs if job.path.name.startswith("bands-")}
+    assert set(bands) == {f"bands-{name}.png" for name in ADVERSARIAL}
+    teams = bands["bands-lure-comm.png"].args[0]
+    assert set(teams) == {"lure-comm-vanilla", "lure-comm-paper", "lure-comm-extended"}
+
+
 def test_adversarial_targets_fail_when_the_numbers_say_so():
     exp = catalog()["adversarial"]
     teams = ["vanilla", "paper", "extended"] * 2

@@ -108,6 +108,19 @@ def figure_jobs(
                 (("metrics", metrics), ("title", exp.name)),
             )
         )
+    elif exp.kind == "adversarial":  # per scenario, its three teams (labels "<scenario>-<team>")
+        for name in dict.fromkeys(label.rsplit("-", 1)[0] for label in runs):
+            groups = {k: v for k, v in runs.items() if k.rsplit("-", 1)[0] == name}
+            jobs.append(
+                FigureJob(
+                    f"{name}: vanilla, the paper's team and the extended team, "
+                    "mean ± 1 std over seeds",
+                    out / f"bands-{name}.png",
+                    plot_bands,
+                    (groups,),
+                    (("metrics", metrics), ("title", name)),
+                )
+            )
     else:
         for level in RISK_LEVELS:
             groups = {k: v for k, v in runs.items() if k.endswith(f"-{level}")}
