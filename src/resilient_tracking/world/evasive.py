@@ -24,14 +24,9 @@ import numpy as np
 
 from resilient_tracking.models.geometry import row_norms, vector_length
 from resilient_tracking.scenario import Evasive
-from resilient_tracking.world.steering import (
-    approach,
-    free_run,
-    move_inside,
-    on_point,
-    turn_toward,
-)
-from resilient_tracking.world.target_motion import MOTIONS, Surroundings, TargetMotion
+from resilient_tracking.world.shadowed import ShadowedMotion
+from resilient_tracking.world.steering import approach, free_run, move_inside, turn_toward
+from resilient_tracking.world.target_motion import MOTIONS
 
 #: Inward normals of the walls, in the order of ``[position − lower, upper − position]``:
 #: left, bottom, right, top.
@@ -94,34 +89,19 @@ def flee_heading(
 
 
 @MOTIONS.register("evasive")
-class EvasiveMotion(TargetMotion):
+class EvasiveMotion(ShadowedMotion):
     """Its base motion, fleeing robots within ``radius`` (module docstring)."""
 
     Spec = Evasive
-    reacts = True
 
     def __init__(self, spec: Evasive, start: np.ndarray):
         super().__init__(spec, start)
-        #: the base motion, run on as the shadow of where the target would be
-        self.base: TargetMotion = MOTIONS.get(spec.base.type)(spec.base, start)
-        self.velocity = self.base.velocity.copy()
-        #: ``base`` (on the base motion), ``flee`` or ``return`` (steering back to it)
-        self.mode = "base"
-        self._around: Surroundings | None = None
         #: the heading along a wall a cornered target keeps to until fleeing leads on from it
         self._escape: np.ndarray | None = None
 
-    def sense(self, surroundings: Surroundings) -> None:
-        """Keep the robots and the workspace for the next step (and hand them to the base)."""
-        self._around = surroundings
-        if self.base.reacts:
-            self.base.sense(surroundings)
-
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Flee, steer back, or follow the base motion (module docstring)."""
-        shadow = self.base.position.copy()  # where the base motion is at the step's start
-        self.base.step(dt, rng)
-        shadow_velocity = (self.base.position - shadow) / dt
+        shadow, shadow_velocity = self.step_shadow(dt, rng)
         around, spec = self._around, self.spec
         heading = None
         if around is not None:
@@ -135,7 +115,7 @@ class EvasiveMotion(TargetMotion):
                 self._escape,
             )
         if heading is None and self.mode == "base":
-            self.position, self.velocity = self.base.position.copy(), self.base.velocity.copy()
+            self.follow_base()
             return
         if heading is not None:
             self.mode = "flee"
@@ -150,13 +130,4 @@ class EvasiveMotion(TargetMotion):
             self.position, self.velocity = move_inside(
                 self.position, velocity, dt, around.lower, around.upper
             )
-        if self.mode == "return" and on_point(
-            self.position,
-            self.velocity,
-            self.base.position,
-            shadow_velocity,
-            spec.max_accel,
-            dt,
-        ):
-            self.mode = "base"
-            self.position, self.velocity = self.base.position.copy(), self.base.velocity.copy()
+        self.rejoin_if_on(shadow_velocity, spec.max_accel, dt)

@@ -24,8 +24,9 @@ import numpy as np
 
 from resilient_tracking.models.geometry import row_norms, vector_length
 from resilient_tracking.scenario import Lure
-from resilient_tracking.world.steering import approach, move_inside, on_point, turn_toward
-from resilient_tracking.world.target_motion import MOTIONS, Surroundings, TargetMotion
+from resilient_tracking.world.shadowed import ShadowedMotion
+from resilient_tracking.world.steering import approach, move_inside, turn_toward
+from resilient_tracking.world.target_motion import MOTIONS
 
 log = logging.getLogger(__name__)
 
@@ -36,19 +37,14 @@ TICK = 1e-9
 
 
 @MOTIONS.register("lure")
-class LureMotion(TargetMotion):
+class LureMotion(ShadowedMotion):
     """Its base motion, with trips to a zone's true centre (module docstring)."""
 
     Spec = Lure
-    reacts = True
 
     def __init__(self, spec: Lure, start: np.ndarray):
         super().__init__(spec, start)
-        #: the base motion, run on as the shadow of where the target would be
-        self.base: TargetMotion = MOTIONS.get(spec.base.type)(spec.base, start)
-        self.velocity = self.base.velocity.copy()
-        #: ``base``, ``go`` (to the zone), ``linger`` or ``return`` (steering back to the base)
-        self.mode = "base"
+        # modes ``go`` (to the zone) and ``linger`` besides ``base`` and ``return``
         #: time (s) since the start of the episode, at the start of the next step
         self.time = 0.0
         #: time the next trip is due; ``inf``: none is
@@ -56,27 +52,17 @@ class LureMotion(TargetMotion):
         #: where the current trip leads, and when its lingering ends
         self.goal: np.ndarray | None = None
         self.linger_until = math.inf
-        self._around: Surroundings | None = None
         self._warned = False
-
-    def sense(self, surroundings: Surroundings) -> None:
-        """Keep the zones, robots and workspace for the next step (and hand them to the
-        base)."""
-        self._around = surroundings
-        if self.base.reacts:
-            self.base.sense(surroundings)
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
         """Follow the base motion, or go to the zone, linger, or steer back (module
         docstring)."""
-        shadow = self.base.position.copy()  # where the base motion is at the step's start
-        self.base.step(dt, rng)
-        shadow_velocity = (self.base.position - shadow) / dt
+        shadow, shadow_velocity = self.step_shadow(dt, rng)
         now, self.time = self.time, self.time + dt
         if self.mode == "base" and now + TICK >= self.due:
             self._maybe_set_off()
         if self.mode == "base":
-            self.position, self.velocity = self.base.position.copy(), self.base.velocity.copy()
+            self.follow_base()
             return
         spec, around = self.spec, self._around
         assert around is not None and self.goal is not None  # a trip starts only with both
@@ -92,16 +78,8 @@ class LureMotion(TargetMotion):
         )
         if self.mode == "go" and vector_length(self.goal - self.position) <= ARRIVED:
             self.mode, self.linger_until = "linger", self.time + spec.linger
-        elif self.mode == "return" and on_point(
-            self.position,
-            self.velocity,
-            self.base.position,
-            shadow_velocity,
-            spec.max_accel,
-            dt,
-        ):
-            self.mode = "base"
-            self.position, self.velocity = self.base.position.copy(), self.base.velocity.copy()
+        else:
+            self.rejoin_if_on(shadow_velocity, spec.max_accel, dt)
 
     def _maybe_set_off(self) -> None:
         """Start the due trip if the zone is known and (with ``near``) a robot is near."""
