@@ -33,9 +33,14 @@ EventName = Literal[
     "target_suspected",
     "solver_fallback",
     "invalid_decision",
+    "degraded",
+    "degradation_ended",
 ]
 #: Every event name, in the order of :data:`EventName`.
 EVENT_NAMES: tuple[EventName, ...] = get_args(EventName)
+#: Events only the world writes (the truth side of the events table): the team never makes
+#: nor sees them, so a silent degradation stays silent to it.
+TRUTH_EVENTS: tuple[EventName, ...] = ("degraded", "degradation_ended")
 
 
 @dataclass(frozen=True)
@@ -55,7 +60,8 @@ class Event:
     #: ``temporary``/``permanent`` (attack: of the failure; zone_learned: as believed, also
     #: ``unknown``); empty otherwise
     persistence: str = ""
-    #: why an attack happened: ``hazard`` (the zone's draw) or ``jamming`` (links cut); what
+    #: why an attack happened: ``hazard`` (the zone's draw), ``jamming`` (links cut) or
+    #: ``degradation`` (an announced degradation); a degradation: ``announced`` or ``silent``; what
     #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…); why
     #: a target became suspect (``linger``, ``zone``)
     cause: str = ""
@@ -189,3 +195,26 @@ class Event:
         ``out_of_bounds``, ``shape``, ``type`` or ``modes``); the robot held its position."""
         detail = f"policy {policy}: {message}"
         return cls(step, robot, "invalid_decision", detail, cause=problem, action="hold")
+
+    @classmethod
+    def degraded(
+        cls, step: int, robot: int, kind: str, zone: int, persistence: str, announced: bool
+    ) -> Event:
+        """Truth: ``zone`` degraded ``robot``'s sensor or radio (``announced`` or silent)."""
+        cause = "announced" if announced else "silent"
+        detail = f"{kind} zone{zone} {persistence} ({cause})"
+        return cls(
+            step,
+            robot,
+            "degraded",
+            detail,
+            kind=kind,
+            zone=zone,
+            persistence=persistence,
+            cause=cause,
+        )
+
+    @classmethod
+    def degradation_ended(cls, step: int, robot: int, kind: str, zone: int) -> Event:
+        """Truth: ``robot``'s temporary degradation of ``kind`` by ``zone`` ended."""
+        return cls(step, robot, "degradation_ended", f"{kind} zone{zone}", kind=kind, zone=zone)

@@ -35,8 +35,10 @@ class Attack:
 
     robot: int
     clue: ZoneClue
-    #: ``hazard`` for a zone's attack draw, ``jamming`` when all its links were cut.
-    cause: Literal["hazard", "jamming"] = "hazard"
+    #: ``hazard`` for a zone's attack draw, ``jamming`` when all its links were cut,
+    #: ``degradation`` when the robot's own check found its sensor or radio degraded (an
+    #: announced degradation: the capability still works, worse; docs/model.md §2).
+    cause: Literal["hazard", "jamming", "degradation"] = "hazard"
 
 
 @dataclass(frozen=True)

@@ -162,6 +162,9 @@ class MeasurementModel(ABC):
     DIM: ClassVar[int]
     #: indices of the channels that are angles (wrapped to [−π, π))
     ANGLES: ClassVar[tuple[int, ...]]
+    #: index of the channel that is a range, where a degraded sensor's bias is added
+    #: (docs/model.md §2); None: the sensor measures no range
+    RANGE: ClassVar[int | None] = None
     #: length of :attr:`parameters`
     N_PARAMETERS: ClassVar[int]
 
@@ -285,6 +288,7 @@ class RangeBearingSensor(MeasurementModel):
     #: ``[range, bearing]``
     DIM: ClassVar[int] = 2
     ANGLES: ClassVar[tuple[int, ...]] = (1,)
+    RANGE: ClassVar[int | None] = 0
     #: range peak, range shape, bearing peak, bearing shape
     N_PARAMETERS: ClassVar[int] = 4
 

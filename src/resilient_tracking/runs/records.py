@@ -111,6 +111,17 @@ def join_sides(name: str, team: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFra
     return pd.DataFrame(columns)
 
 
+def append_truth_rows(team: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """The team's rows with truth's own rows among them, ordered by step (truth's after the
+    team's of the same step); the team's table itself when truth has none."""
+    if truth.empty:
+        return team
+    if team.empty:
+        return truth.reset_index(drop=True)
+    both = pd.concat([team, truth], ignore_index=True)
+    return both.sort_values("step", kind="stable", ignore_index=True)
+
+
 def join_tables(
     team: dict[str, pd.DataFrame], truth: dict[str, pd.DataFrame]
 ) -> dict[str, pd.DataFrame]:
@@ -118,7 +129,9 @@ def join_tables(
     the parts the team and truth recorded (:func:`join_sides` where both recorded one)."""
     tables = {}
     for name in ALL_TABLES:
-        if name in team and name in truth:
+        if name in team and name in truth and TABLES[name].truth_rows:
+            tables[name] = append_truth_rows(team[name], truth[name])
+        elif name in team and name in truth:
             tables[name] = join_sides(name, team[name], truth[name])
         else:
             tables[name] = team[name] if name in team else truth[name]

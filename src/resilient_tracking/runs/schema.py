@@ -17,7 +17,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from resilient_tracking.events import EVENT_NAMES
+from resilient_tracking.events import EVENT_NAMES, TRUTH_EVENTS
 
 Dtype = Literal["int64", "float64", "bool", "str"]
 Side = Literal["team", "truth"]
@@ -58,6 +58,8 @@ class Table:
     optional: bool = False
     #: a remark for the README row
     note: str = ""
+    #: besides the team's rows, truth appends rows of its own (events only the world knows)
+    truth_rows: bool = False
 
     @property
     def file(self) -> str:
@@ -168,7 +170,14 @@ EVENTS = Table(
     (
         _STEP,
         _c("robot", "int64", "", "robot concerned, −1 for the team or a league"),
-        _c("event", "str", "", "name (resilient_tracking.events.EventName)"),
+        _c(
+            "event",
+            "str",
+            "",
+            "name (resilient_tracking.events.EventName); "
+            + " and ".join(TRUTH_EVENTS)
+            + " rows are truth's, never seen by the team",
+        ),
         _c("detail", "str", "", "one line for people (never parsed)"),
         _c("kind", "str", "", "sensing or comm (attack, recover, zone_*), else empty"),
         _c("zone", "int64", "", "id of the zone that attacked or was learned, −1 when none"),
@@ -177,7 +186,8 @@ EVENTS = Table(
             "cause",
             "str",
             "",
-            "attack: hazard (the zone's draw) or jamming; invalid_decision: what was wrong"
+            "attack: hazard (the zone's draw), jamming or degradation (announced);"
+            " degraded: announced or silent; invalid_decision: what was wrong"
             " (not_finite, out_of_bounds, shape, type, modes); target_suspected: linger or"
             " zone; else empty",
         ),
@@ -193,6 +203,7 @@ EVENTS = Table(
     ),
     optional=True,
     note="events: " + ", ".join(EVENT_NAMES),
+    truth_rows=True,
 )
 
 ZONES = Table(

@@ -1,5 +1,6 @@
-"""Truth's side of a run's tables: the targets' true positions, the zones' drawn centres, and
-the team estimate's error against truth (``mse``, docs/model.md §8).
+"""Truth's side of a run's tables: the targets' true positions, the zones' drawn centres, the
+events only the world knows (degradations, docs/model.md §2), and the team estimate's error
+against truth (``mse``, docs/model.md §8).
 
 Only the place that holds truth feeds it (the episode loop; a node given the targets' poses);
 the team never sees these columns.
@@ -13,8 +14,9 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.events import Event
 from resilient_tracking.runs.records import ColumnTable
-from resilient_tracking.runs.schema import TARGETS, TEAM, ZONES
+from resilient_tracking.runs.schema import EVENTS, TARGETS, TEAM, ZONES
 from resilient_tracking.sim.metrics import mse
 
 
@@ -92,6 +94,7 @@ class TruthRecorder:
         self.team = ColumnTable(TEAM.numpy_dtypes("truth"), steps)
         self.targets = ColumnTable(TARGETS.numpy_dtypes("truth"), steps * n_targets)
         self.zones = zone_table(zones)
+        self.events = ColumnTable(EVENTS.numpy_dtypes())
 
     def step(self, step: int, truth: np.ndarray, estimate: np.ndarray) -> None:
         """Record step ``step``: true positions ``truth`` (N, 2) and the team's estimated
@@ -100,6 +103,16 @@ class TruthRecorder:
         n = len(truth)
         self.targets.append(n, step=step, target=np.arange(n), x=truth[:, 0], y=truth[:, 1])
 
+    def record_events(self, events: Sequence[Event]) -> None:
+        """Record truth's own events (rows of the events table the team never sees)."""
+        for e in events:
+            self.events.append_row(**{name: getattr(e, name) for name in EVENTS.names})
+
     def tables(self) -> dict[str, pd.DataFrame]:
-        """Truth's part of the team and targets tables, and the zones table."""
-        return {"team": self.team.frame(), "targets": self.targets.frame(), "zones": self.zones}
+        """Truth's part of the team, targets and events tables, and the zones table."""
+        return {
+            "team": self.team.frame(),
+            "targets": self.targets.frame(),
+            "events": self.events.frame() if len(self.events) else EVENTS.empty_frame(),
+            "zones": self.zones,
+        }

@@ -34,6 +34,7 @@ def short_repr(value: Any, limit: int = 80) -> str:
 _UNION_TAG: dict[str, tuple[str, str | None]] = {
     "zones": ("kind", None),
     "estimator": ("type", "ekf"),
+    "effect": ("type", "fail"),
 }
 
 

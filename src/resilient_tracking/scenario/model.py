@@ -10,7 +10,7 @@ from pydantic import (
     ValidationError,
 )
 
-from resilient_tracking.models.sensor import RangeBearingSpec
+from resilient_tracking.models.sensor import SENSORS, RangeBearingSpec
 from resilient_tracking.planning.spec import PlannerSpec
 from resilient_tracking.scenario.adversarial import Lure
 from resilient_tracking.scenario.base import (
@@ -24,6 +24,7 @@ from resilient_tracking.scenario.base import (
     MIN_DT,
     Strict,
 )
+from resilient_tracking.scenario.effects import SensingDegrade
 from resilient_tracking.scenario.errors import ScenarioError, field_problems
 from resilient_tracking.scenario.paths import set_paths
 from resilient_tracking.scenario.policies import PolicySpec
@@ -149,6 +150,7 @@ class Scenario(Strict):
         for i, robot in enumerate(self.robots):
             if not ws.contains(robot.start):
                 out.append(f"robots.{i}.start: outside the workspace (got {list(robot.start)})")
+        out += self._bias_problems()
         named: dict[str, int] = {}
         for k, zone in enumerate(self.zones):
             if zone.name is None:
@@ -165,6 +167,21 @@ class Scenario(Strict):
             for path, motion in _motion_chain(target.motion, f"targets.{j}.motion"):
                 out += _motion_problems(motion, path, target.start, named)
         return out
+
+    def _bias_problems(self) -> list[str]:
+        """A range bias on a sensor that measures no range (docs/model.md §2)."""
+        biased = [
+            (k, zone.effect.bias)
+            for k, zone in enumerate(self.zones)
+            if isinstance(zone.effect, SensingDegrade) and zone.effect.bias != 0
+        ]
+        if not biased or SENSORS.get(self.sensor.type).RANGE is not None:
+            return []
+        return [
+            f"zones.{k}.effect.bias: the {self.sensor.type} sensor measures no range to bias; "
+            f"use noise_factor or dropout (got {bias})"
+            for k, bias in biased
+        ]
 
     @classmethod
     def parse(cls, data: Any, source: str = "<scenario>") -> Scenario:

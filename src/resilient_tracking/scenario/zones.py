@@ -21,6 +21,7 @@ from resilient_tracking.scenario.base import (
     Vec2,
     plugin_spec,
 )
+from resilient_tracking.scenario.effects import CommEffect, FailEffect, SensingEffect
 from resilient_tracking.spec import MAX_INTENSITY, MAX_LENGTH, MAX_RATE, MAX_RATIO
 
 # ---------------------------------------------------------------------------- danger zones
@@ -171,6 +172,13 @@ class SensingZone(ZoneBase):
         description="Radius r of the zone's disk around its true center.",
         json_schema_extra={"unit": "m"},
     )
+    effect: SensingEffect = Field(
+        FailEffect(),
+        description=(
+            "What an attack does: fail (the sensor is lost, the default) or degrade (noise "
+            "multiplied, range biased, measurements dropped)."
+        ),
+    )
 
     @property
     def size(self) -> float:
@@ -194,6 +202,13 @@ class CommZone(ZoneBase):
             " the true center."
         ),
         json_schema_extra={"unit": "ratio"},
+    )
+    effect: CommEffect = Field(
+        FailEffect(),
+        description=(
+            "What an attack does: fail (the radio is lost, the default) or degrade (messages "
+            "on the robot's links lost)."
+        ),
     )
 
     @property

@@ -110,6 +110,9 @@ class EpisodeStepper:
         """Observe the world at the current step and update the team's belief with it."""
         self.obs = obs = self.world.observe()
         self._truth = self.world.target_states
+        truth_events = self.world.take_truth_events()
+        if self.record and truth_events:
+            self.truth_rows.record_events(truth_events)
         self._events = self.team.perceive(obs)
         return obs
 

@@ -1,9 +1,11 @@
 """The world: truth of robots, targets, zones, failures and links, advanced one step at a time.
 
 Per step (``World.step``): robots move with clipped velocities, targets move, every zone draws an
-attack for every robot at its new position, temporary failures recover outside the zone's
-influence region, and links are recomputed. ``World.observe`` gives the robots what they can
-know: measurements, their own failures, attack clues and link states.
+attack for every robot at its new position (a failure, or a degradation where the zone's
+effect is ``degrade``: :mod:`~resilient_tracking.world.degradation`), temporary failures and
+degradations recover outside the zone's influence region, and links are recomputed.
+``World.observe`` gives the robots what they can know: measurements, their own failures,
+attack clues and link states.
 """
 
 from __future__ import annotations
@@ -14,11 +16,13 @@ from typing import cast
 
 import numpy as np
 
+from resilient_tracking.events import Event
 from resilient_tracking.models.geometry import row_norms
 from resilient_tracking.models.robot_motion import clip_velocities
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario
+from resilient_tracking.world.degradation import Degradations
 from resilient_tracking.world.links import jammed_by, link_matrix
 from resilient_tracking.world.target_motion import Surroundings, ZoneTruth
 from resilient_tracking.world.targets import TargetTruth
@@ -86,6 +90,8 @@ class World:
         # the comm zones' true centres and δ2 never change: arrays once
         self._jammer_centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
         self._jammer_deltas = np.array([z.size for z in self._comm_zones], dtype=float)
+        #: partial degradations by zones whose effect is ``degrade`` (truth only)
+        self.degradations = Degradations(scenario, seed)
         self.links = self._compute_links()
 
     # ------------------------------------------------------------------ read-only truth
@@ -136,6 +142,7 @@ class World:
         targets = np.array([t.position for t in self.targets])
         # Noise is drawn for every pair every step so the stream stays aligned across policies.
         z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
+        z = self.degradations.measure(z, self.sensor, positions, targets)
         distance = row_norms(targets[None, :, :] - positions[:, None, :])
         sensing_ok = self.capability_ok("sensing")
         measured = sensing_ok[:, None] & self.sensor.in_range(distance)
@@ -157,6 +164,11 @@ class World:
         self._pending_attacks = []
         self._pending_recoveries = []
         return obs
+
+    def take_truth_events(self) -> list[Event]:
+        """Truth's events since the last call (degradations begun and ended): for the truth
+        recorder, never for the team."""
+        return self.degradations.take_events()
 
     # ------------------------------------------------------------------ dynamics
 
@@ -226,7 +238,15 @@ class World:
             hit = row < zone.hazard.probability(self.robot_positions, self.step_index, self.dt)
             if hit.any():
                 for robot in np.flatnonzero(hit).tolist():
-                    self._fail(robot, zone, "hazard")
+                    if zone.spec.effect.type == "degrade":
+                        self._degrade(robot, zone)
+                    else:
+                        self._fail(robot, zone, "hazard")
+
+    def _degrade(self, robot: int, zone: TrueZone) -> None:
+        """A degrading zone's attack; announced, the robot learns of it as of a failure."""
+        if self.degradations.start(robot, zone, self.step_index) and zone.spec.effect.announced:
+            self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(), cause="degradation"))
 
     def _fail(self, robot: int, zone: TrueZone, cause: str) -> None:
         kind: FailureKind = "sensing" if zone.kind == "sensing" else "comm"
@@ -254,6 +274,10 @@ class World:
                 if not zone.in_influence(self.robot_positions[robot]):
                     self.failures[kind][robot] = None  # type: ignore[index]
                     self._pending_recoveries.append((robot, kind))  # type: ignore[arg-type]
+        ended = self.degradations.recover(self.robot_positions, self.zones, self.step_index)
+        for robot, kind in ended:  # announced: the robot's own check reports it, unless down
+            if self.failures[kind][robot] is None and (robot, kind) not in self._pending_recoveries:
+                self._pending_recoveries.append((robot, kind))
 
     def _compute_links(self) -> np.ndarray:
         """Links now, and jamming isolation: a robot whose every possible link is jammed."""
@@ -266,7 +290,7 @@ class World:
             positions, radio, np.zeros((0,) + jammed.shape[1:], bool), self.scenario.comm_range
         )
         if not jammed.size:  # no jammer: no robot is isolated by jamming, none recovers from it
-            return possible
+            return self.degradations.drop_links(possible)
         links = possible & ~jammed.any(axis=0)
         any_possible = cast(list[bool], possible.any(axis=1).tolist())
         any_link = cast(list[bool], links.any(axis=1).tolist())
@@ -279,4 +303,4 @@ class World:
             elif not isolated and failure is not None and failure.cause == "jamming":
                 self.failures["comm"][robot] = None
                 self._pending_recoveries.append((robot, "comm"))
-        return links
+        return self.degradations.drop_links(links)
