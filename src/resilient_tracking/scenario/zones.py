@@ -164,7 +164,9 @@ class SensingZone(ZoneBase):
     """A sensing danger zone (paper eq. 4): a disk of radius ``r`` around its true center; an attack
     disables the robot's sensor."""
 
-    kind: Literal["sensing"] = Field(description="An attack disables the robot's sensor.")
+    kind: Literal["sensing"] = Field(
+        description="An attack disables the robot's sensor (or degrades it: effect)."
+    )
     radius: float = Field(
         ...,
         gt=0,
@@ -191,7 +193,10 @@ class CommZone(ZoneBase):
     link when a robot is within ``δ2`` times the link length of the true center."""
 
     kind: Literal["comm"] = Field(
-        description="An attack disables the robot's radio; the zone also jams links."
+        description=(
+            "An attack disables the robot's radio (or degrades it: effect); the zone also jams "
+            "links."
+        )
     )
     delta2: float = Field(
         ...,
