@@ -35,7 +35,7 @@ def _refuse(data: Any, fields: tuple[str, ...], kind: str) -> Any:
             if name in data:
                 other = "sensing" if kind == "comm" else "comm"
                 raise ValueError(
-                    f"effect.{name}: applies to a {other} zone's degradation, not a {kind} zone's"
+                    f"{name}: applies to a {other} zone's degradation, not a {kind} zone's"
                 )
     return data
 
