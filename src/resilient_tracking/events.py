@@ -55,7 +55,8 @@ class Event:
     #: ``temporary``/``permanent`` (attack: of the failure; zone_learned: as believed, also
     #: ``unknown``); empty otherwise
     persistence: str = ""
-    #: why an attack happened: ``hazard`` (the zone's draw) or ``jamming`` (links cut); what
+    #: why an attack happened: ``hazard`` (the zone's draw), ``jamming`` (links cut) or
+    #: ``spread`` (passed on by a teammate's compromised radio); what
     #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…); why
     #: a target became suspect (``linger``, ``zone``)
     cause: str = ""

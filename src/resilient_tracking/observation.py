@@ -35,8 +35,10 @@ class Attack:
 
     robot: int
     clue: ZoneClue
-    #: ``hazard`` for a zone's attack draw, ``jamming`` when all its links were cut.
-    cause: Literal["hazard", "jamming"] = "hazard"
+    #: ``hazard`` for a zone's attack draw, ``jamming`` when all its links were cut, ``spread``
+    #: when a teammate's compromised radio passed the zone's compromise on over a link (the
+    #: victim feels it as the zone's attack; the compromise carries the zone's signature).
+    cause: Literal["hazard", "jamming", "spread"] = "hazard"
 
 
 @dataclass(frozen=True)

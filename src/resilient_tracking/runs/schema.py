@@ -177,7 +177,8 @@ EVENTS = Table(
             "cause",
             "str",
             "",
-            "attack: hazard (the zone's draw) or jamming; invalid_decision: what was wrong"
+            "attack: hazard (the zone's draw), jamming, or spread (a teammate's compromised"
+            " radio passed the zone's compromise on); invalid_decision: what was wrong"
             " (not_finite, out_of_bounds, shape, type, modes); target_suspected: linger or"
             " zone; else empty",
         ),
