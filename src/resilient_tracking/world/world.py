@@ -19,7 +19,7 @@ from resilient_tracking.models.geometry import row_norms
 from resilient_tracking.models.robot_motion import clip_velocities
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
-from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario import CommZone, Scenario
 from resilient_tracking.world.links import jammed_by, link_matrix
 from resilient_tracking.world.target_motion import Surroundings, ZoneTruth
 from resilient_tracking.world.targets import TargetTruth
@@ -51,6 +51,13 @@ def zone_truth(zone: TrueZone) -> ZoneTruth:
     for a in (center, mu, sigma):
         a.setflags(write=False)  # seen by every reacting target: nobody moves the zone
     return ZoneTruth(zone.spec.name, zone.kind, center, mu, sigma, float(zone.size), radius)
+
+
+def spread_probability(zone: TrueZone) -> float:
+    """Per step, the probability that a radio ``zone`` compromised passes the compromise to
+    each teammate it has a link to; 0 for a zone that does not spread."""
+    spread = zone.spec.spread if isinstance(zone.spec, CommZone) else None
+    return 0.0 if spread is None else spread.probability
 
 
 def make_zones(scenario: Scenario, seed: int) -> list[TrueZone]:
@@ -89,13 +96,8 @@ class World:
         # the comm zones' true centres and δ2 never change: arrays once
         self._jammer_centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
         self._jammer_deltas = np.array([z.size for z in self._comm_zones], dtype=float)
-        #: ``(M,)`` spread probability per step of each zone's compromise (0: it does not spread)
-        self._spread = np.array(
-            [
-                0.0 if getattr(z.spec, "spread", None) is None else z.spec.spread.probability
-                for z in self.zones
-            ]
-        )
+        #: spread probability per step of each zone's compromise (0: it does not spread)
+        self._spread = np.array([spread_probability(z) for z in self.zones], dtype=float)
         # its own stream, made only when a zone spreads: no other draw changes
         self._rng_spread = stream(seed, "spread") if self._spread.any() else None
         self.links = self._compute_links()
