@@ -61,7 +61,8 @@ class Event:
     #: ``unknown``); empty otherwise
     persistence: str = ""
     #: why an attack happened: ``hazard`` (the zone's draw), ``jamming`` (links cut) or
-    #: ``degradation`` (an announced degradation); a degradation: ``announced`` or ``silent``; what
+    #: ``degradation`` (an announced degradation) or ``spread`` (passed on by a teammate's
+    #: compromised radio); a degradation: ``announced`` or ``silent``; what
     #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…); why
     #: a target became suspect (``linger``, ``zone``)
     cause: str = ""

@@ -37,8 +37,10 @@ class Attack:
     clue: ZoneClue
     #: ``hazard`` for a zone's attack draw, ``jamming`` when all its links were cut,
     #: ``degradation`` when the robot's own check found its sensor or radio degraded (an
-    #: announced degradation: the capability still works, worse; docs/model.md §2).
-    cause: Literal["hazard", "jamming", "degradation"] = "hazard"
+    #: announced degradation: the capability still works, worse; docs/model.md §2), ``spread``
+    #: when a teammate's compromised radio passed the zone's compromise on over a link (the
+    #: victim feels it as the zone's attack; the compromise carries the zone's signature).
+    cause: Literal["hazard", "jamming", "degradation", "spread"] = "hazard"
 
 
 @dataclass(frozen=True)

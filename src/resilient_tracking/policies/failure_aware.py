@@ -43,6 +43,7 @@ from resilient_tracking.policies.base import Decision, register_policy
 from resilient_tracking.policies.exposure import ExposureLedger
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
+from resilient_tracking.policies.quarantine import QuarantineWatch
 from resilient_tracking.policies.suspects import SuspectWatch
 from resilient_tracking.team_config import TeamConfig
 
@@ -85,6 +86,12 @@ class FailureAwarePolicy(PlanningPolicy):
         self.suspects = (
             SuspectWatch(config.n_robots, params.lure, config.dt) if params.lure_guard else None
         )
+        #: teammates known to carry a compromise, kept out of radio range (with ``quarantine``)
+        self.quarantine = (
+            QuarantineWatch(config.n_robots, params.quarantine_keep_out, config.comm_range)
+            if params.quarantine
+            else None
+        )
 
     # ------------------------------------------------------------------ the tick
 
@@ -121,6 +128,8 @@ class FailureAwarePolicy(PlanningPolicy):
         cooling = obs.step < self.cooldown_until
         attacked = m - int(np.count_nonzero(obs.sensing_ok & obs.comm_ok))
         eps_sensing = self._sensing_risk(int(np.count_nonzero(obs.sensing_ok)), m)
+        if self.quarantine is not None:
+            self.quarantine.observe(obs)
 
         for k, robots in enumerate(belief.leagues):
             knowledge = belief.league_knowledge(robots)
@@ -139,6 +148,10 @@ class FailureAwarePolicy(PlanningPolicy):
                 decision.events += self.suspects.observe(obs.step, robots, estimate, sensing_rows)
                 suspect_rows = self.suspects.rows(robots, belief.predicted(k), self.beta1)
                 sensing_rows = np.vstack([sensing_rows, suspect_rows])
+            if self.quarantine is not None:
+                # keep out of radio range of quarantined teammates (eq. 7c rows, last)
+                quarantine_rows = self.quarantine.rows(robots, obs, self.beta1)
+                sensing_rows = np.vstack([sensing_rows, quarantine_rows])
             sensing = obs.sensing_ok[robots].astype(float)
             q = self.tracking_inputs(
                 belief, obs, robots, k, weights[:4], sensing, sensing_rows, rows[1]

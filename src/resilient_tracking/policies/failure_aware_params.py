@@ -153,6 +153,38 @@ class LureGuardParams(Strict):
     )
 
 
+class QuarantineParams(Strict):
+    """How long and how far robots keep out of radio range of a teammate known to carry a
+    compromise (the ``quarantine`` of the failure-aware policy, docs/model.md §6.2)."""
+
+    steps: int = Field(
+        0,
+        ge=0,
+        le=MAX_STEP_COUNT,
+        description=(
+            "Steps a quarantine lasts from when the compromise became known; 0, the default:"
+            " the rest of the episode (a permanent compromise never heals)."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
+    margin: Length = Field(
+        0.3,
+        description=(
+            "Added to the team's radio range: the keep-out disc around a quarantined robot has"
+            " radius comm_range + margin."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    position_std: PositiveLength = Field(
+        0.05,
+        description=(
+            "Standard deviation given to a quarantined robot's observed position in its eq. 7c"
+            " row (it moves between ticks)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+
+
 class FailureAwareParams(Strict):
     """Algorithm 1 with adaptive weights, cool-down, circular evasion and circle inference."""
 
@@ -274,4 +306,19 @@ class FailureAwareParams(Strict):
     )
     lure: LureGuardParams = Field(
         LureGuardParams(), description="When a target is suspect and how far robots keep from it."
+    )
+    quarantine: bool = Field(
+        False,
+        description=(
+            "Beyond the paper: a robot that announces its radio compromised by a permanent comm"
+            " zone is quarantined by the teammates that heard it (linked to it at the tick"
+            " before), who share it in their league; the league keeps"
+            " quarantine_keep_out.margin beyond the radio range from it (an eq. 7c row), so a"
+            " spreading compromise cannot reach them. false, the default: the paper's team"
+            " (docs/model.md §6.2)."
+        ),
+    )
+    quarantine_keep_out: QuarantineParams = Field(
+        QuarantineParams(),
+        description="How long a quarantine lasts and how far robots keep from a quarantined robot.",
     )

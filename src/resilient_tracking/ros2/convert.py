@@ -16,7 +16,7 @@ from resilient_tracking.ros2 import msgs
 
 KINDS = ("sensing", "comm")
 PERSISTENCES = ("", "temporary", "permanent")
-CAUSES = ("hazard", "jamming", "degradation")
+CAUSES = ("hazard", "jamming", "degradation", "spread")
 
 
 class MessageError(ValueError):

@@ -250,7 +250,7 @@ float64[2] mu
 float64[4] sigma
 float64 size           # sensing: radius r; comm: jamming strength delta2
 string persistence     # temporary | permanent
-string cause           # hazard | jamming | degradation
+string cause           # hazard | jamming | degradation | spread
 """,
     "resilient_tracking_msgs/msg/TeamObservation": """\
 # One tick of synthesized observations for a team of n_robots robots and n_targets targets.

@@ -76,6 +76,7 @@ from resilient_tracking.scenario.zones import (
     Hazard,
     HazardSpec,
     SensingZone,
+    SpreadSpec,
     Zone,
     ZoneBase,
 )
@@ -124,6 +125,7 @@ __all__ = [
     "ZoneBase",
     "SensingZone",
     "CommZone",
+    "SpreadSpec",
     "Zone",
     "PolicySpec",
     "RouteSpec",

@@ -10,6 +10,7 @@ from pydantic import (
     Field,
     SerializeAsAny,
     field_validator,
+    model_validator,
 )
 
 from resilient_tracking.scenario.base import (
@@ -160,9 +161,32 @@ class ZoneBase(Strict):
     _sigma_ok = field_validator("sigma")(_check_covariance)
 
 
+class SpreadSpec(Strict):
+    """How a permanent comm zone's compromise passes from robot to robot over links
+    (docs/model.md §2)."""
+
+    probability: float = Field(
+        ...,
+        gt=0,
+        le=1,
+        description=(
+            "Probability per step that a robot whose radio this zone compromised passes the"
+            " compromise to each teammate it has a link to."
+        ),
+        json_schema_extra={"unit": "per step"},
+    )
+
+
 class SensingZone(ZoneBase):
     """A sensing danger zone (paper eq. 4): a disk of radius ``r`` around its true center; an attack
     disables the robot's sensor."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_spread(cls, data: object) -> object:
+        if isinstance(data, dict) and "spread" in data:
+            raise ValueError("spread: only a permanent comm zone's compromise spreads")
+        return data
 
     kind: Literal["sensing"] = Field(
         description="An attack disables the robot's sensor (or degrades it: effect)."
@@ -215,6 +239,23 @@ class CommZone(ZoneBase):
             "on the robot's links lost)."
         ),
     )
+    spread: SpreadSpec | None = Field(
+        None,
+        description=(
+            "Permanent zones only: a robot whose radio this zone compromised passes the"
+            " compromise on to linked teammates (stochastic fault propagation); absent: it"
+            " does not."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _spread_is_permanent(self) -> CommZone:
+        if self.spread is not None and self.persistence != "permanent":
+            raise ValueError(
+                "spread: only a permanent comm zone's compromise spreads (this zone's"
+                f" persistence is {self.persistence})"
+            )
+        return self
 
     @property
     def size(self) -> float:

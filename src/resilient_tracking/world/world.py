@@ -2,10 +2,10 @@
 
 Per step (``World.step``): robots move with clipped velocities, targets move, every zone draws an
 attack for every robot at its new position (a failure, or a degradation where the zone's
-effect is ``degrade``: :mod:`~resilient_tracking.world.degradation`), temporary failures and
-degradations recover outside the zone's influence region, and links are recomputed.
-``World.observe`` gives the robots what they can know: measurements, their own failures,
-attack clues and link states.
+effect is ``degrade``: :mod:`~resilient_tracking.world.degradation`), compromised radios of
+zones that spread pass the compromise on over links, temporary failures and degradations
+recover outside the zone's influence region, and links are recomputed. ``World.observe`` gives
+the robots what they can know: measurements, their own failures, attack clues and link states.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from resilient_tracking.models.geometry import row_norms
 from resilient_tracking.models.robot_motion import clip_velocities
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
-from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario import CommZone, Scenario
 from resilient_tracking.world.degradation import Degradations
 from resilient_tracking.world.links import jammed_by, link_matrix
 from resilient_tracking.world.target_motion import Surroundings, ZoneTruth
@@ -38,7 +38,9 @@ class Failure:
     persistence: str  # "temporary" | "permanent"
     zone_id: int
     since_step: int
-    cause: str = "hazard"  # "hazard" | "jamming"
+    cause: str = "hazard"  # "hazard" | "jamming" | "spread"
+    #: the robot that passed the compromise on (``cause == "spread"``), else -1
+    source: int = -1
 
 
 def zone_truth(zone: TrueZone) -> ZoneTruth:
@@ -52,6 +54,13 @@ def zone_truth(zone: TrueZone) -> ZoneTruth:
     for a in (center, mu, sigma):
         a.setflags(write=False)  # seen by every reacting target: nobody moves the zone
     return ZoneTruth(zone.spec.name, zone.kind, center, mu, sigma, float(zone.size), radius)
+
+
+def spread_probability(zone: TrueZone) -> float:
+    """Per step, the probability that a radio ``zone`` compromised passes the compromise to
+    each teammate it has a link to; 0 for a zone that does not spread."""
+    spread = zone.spec.spread if isinstance(zone.spec, CommZone) else None
+    return 0.0 if spread is None else spread.probability
 
 
 def make_zones(scenario: Scenario, seed: int) -> list[TrueZone]:
@@ -92,6 +101,10 @@ class World:
         self._jammer_deltas = np.array([z.size for z in self._comm_zones], dtype=float)
         #: partial degradations by zones whose effect is ``degrade`` (truth only)
         self.degradations = Degradations(scenario, seed)
+        #: spread probability per step of each zone's compromise (0: it does not spread)
+        self._spread = np.array([spread_probability(z) for z in self.zones], dtype=float)
+        # its own stream, made only when a zone spreads: no other draw changes
+        self._rng_spread = stream(seed, "spread") if self._spread.any() else None
         self.links = self._compute_links()
 
     # ------------------------------------------------------------------ read-only truth
@@ -228,6 +241,8 @@ class World:
     def _after_move(self) -> None:
         self.step_index += 1
         self._draw_attacks()
+        if self._rng_spread is not None:
+            self._pass_on(self._rng_spread)
         self._recover()
         self.links = self._compute_links()
 
@@ -248,17 +263,49 @@ class World:
         if self.degradations.start(robot, zone, self.step_index) and zone.spec.effect.announced:
             self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(), cause="degradation"))
 
-    def _fail(self, robot: int, zone: TrueZone, cause: str) -> None:
+    def radio_links(self, radio: np.ndarray) -> np.ndarray:
+        """(M, M) bool: the links there would be now if exactly the robots ``radio`` had
+        working radios (within range, not jammed by any comm zone)."""
+        jammed = jammed_by(self.robot_positions, self._jammer_centers, self._jammer_deltas)
+        return link_matrix(self.robot_positions, radio, jammed, self.scenario.comm_range)
+
+    def _pass_on(self, rng: np.random.Generator) -> None:
+        """Spreading compromise: a robot whose radio a spreading zone compromised before this
+        step passes it to each robot its radio still reaches (a link, were its radio its own)
+        whose radio works, with the zone's probability per step; one uniform per ordered pair
+        every step (common random numbers). The first source hit in index order infects."""
+        m = self.n_robots
+        draws = rng.random((m, m))
+        rate = np.zeros(m)
+        for robot, f in enumerate(self.failures["comm"]):
+            if f is not None and f.persistence == "permanent" and f.since_step < self.step_index:
+                rate[robot] = self._spread[f.zone_id]
+        if not rate.any():
+            return
+        open_radio = np.array(
+            [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
+        )
+        reach = self.radio_links(open_radio | (rate > 0))
+        hit = reach & (rate > 0)[:, None] & open_radio[None, :] & (draws < rate[:, None])
+        for target in np.flatnonzero(hit.any(axis=0)).tolist():
+            source = int(np.flatnonzero(hit[:, target])[0])
+            zone = self.zones[cast(Failure, self.failures["comm"][source]).zone_id]
+            self._fail(target, zone, "spread", source)
+            log.debug(
+                "step %d: robot %d compromised robot %d's radio", self.step_index, source, target
+            )
+
+    def _fail(self, robot: int, zone: TrueZone, cause: str, source: int = -1) -> None:
         kind: FailureKind = "sensing" if zone.kind == "sensing" else "comm"
         current = self.failures[kind][robot]
-        persistence = zone.spec.persistence if cause == "hazard" else "temporary"
+        persistence = zone.spec.persistence if cause != "jamming" else "temporary"
         if current is not None:
             if current.persistence == "permanent":
                 return
             replaces_jamming = cause == "hazard" and current.cause == "jamming"
             if persistence == "temporary" and not replaces_jamming:
                 return  # a temporary hit on a capability that is already down changes nothing
-        self.failures[kind][robot] = Failure(persistence, zone.id, self.step_index, cause)
+        self.failures[kind][robot] = Failure(persistence, zone.id, self.step_index, cause, source)
         self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(), cause=cause))  # type: ignore[arg-type]
 
     def _recover(self) -> None:
