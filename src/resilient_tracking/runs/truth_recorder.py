@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking.runs.records import ColumnTable
-from resilient_tracking.runs.schema import TARGETS, TEAM, ZONES
+from resilient_tracking.runs.schema import TARGETS, TEAM, ZONE_TRACKS, ZONES
 from resilient_tracking.sim.metrics import mse
 
 
@@ -70,7 +70,7 @@ def zone_table(zones: Sequence[ZoneTruth]) -> pd.DataFrame:
     for z in zones:
         table.append_row(
             zone=z.id,
-            name=z.spec.name or f"{z.kind[0].upper()}{z.id}",
+            name=z.spec.name or f"{'M' if '+' in z.kind else z.kind[0].upper()}{z.id}",
             kind=z.kind,
             persistence=z.spec.persistence,
             mu_x=z.mu[0],
@@ -85,6 +85,20 @@ def zone_table(zones: Sequence[ZoneTruth]) -> pd.DataFrame:
     return table.frame()
 
 
+def zone_tracks(zones: Sequence[ZoneTruth], steps: int) -> pd.DataFrame:
+    """The zone_tracks table: where each moving zone (one with a ``track``) was at each of the
+    first ``steps`` steps, zone by zone; no rows when no zone moves."""
+    tracks = [(z.id, [r for r in getattr(z, "track", ()) if r[0] < steps]) for z in zones]
+    table = ColumnTable(ZONE_TRACKS.numpy_dtypes(), max(1, sum(len(t) for _, t in tracks)))
+    for zone, rows in tracks:
+        if rows:
+            step, mu_x, mu_y, true_x, true_y = (np.array(c) for c in zip(*rows, strict=True))
+            table.append(
+                len(rows), step=step, zone=zone, mu_x=mu_x, mu_y=mu_y, true_x=true_x, true_y=true_y
+            )
+    return table.frame()
+
+
 class TruthRecorder:
     """Rows of truth's columns: the targets' true positions and the MSE of the team estimate."""
 
@@ -92,6 +106,7 @@ class TruthRecorder:
         self.team = ColumnTable(TEAM.numpy_dtypes("truth"), steps)
         self.targets = ColumnTable(TARGETS.numpy_dtypes("truth"), steps * n_targets)
         self.zones = zone_table(zones)
+        self._zones = zones
 
     def step(self, step: int, truth: np.ndarray, estimate: np.ndarray) -> None:
         """Record step ``step``: true positions ``truth`` (N, 2) and the team's estimated
@@ -101,5 +116,10 @@ class TruthRecorder:
         self.targets.append(n, step=step, target=np.arange(n), x=truth[:, 0], y=truth[:, 1])
 
     def tables(self) -> dict[str, pd.DataFrame]:
-        """Truth's part of the team and targets tables, and the zones table."""
-        return {"team": self.team.frame(), "targets": self.targets.frame(), "zones": self.zones}
+        """Truth's part of the team and targets tables, the zones and zone_tracks tables."""
+        return {
+            "team": self.team.frame(),
+            "targets": self.targets.frame(),
+            "zones": self.zones,
+            "zone_tracks": zone_tracks(self._zones, len(self.team)),
+        }

@@ -75,9 +75,11 @@ from resilient_tracking.scenario.zones import (
     GaussianHazard,
     Hazard,
     HazardSpec,
+    MultimodalZone,
     SensingZone,
     Zone,
     ZoneBase,
+    zone_tag,
 )
 
 __all__ = [
@@ -124,7 +126,9 @@ __all__ = [
     "ZoneBase",
     "SensingZone",
     "CommZone",
+    "MultimodalZone",
     "Zone",
+    "zone_tag",
     "PolicySpec",
     "RouteSpec",
     "PlannerSpec",
