@@ -93,7 +93,7 @@ def zone_map(scenario: Scenario) -> list[ZoneEstimate]:
                 sigma=np.asarray(spec.sigma, dtype=float),
                 size=float(spec.sizes[spec.kinds[0]]),
                 persistence=spec.persistence,
-                modes=tuple(spec.sizes.items()) if len(spec.kinds) > 1 else (),
+                modes=tuple((k, spec.sizes[k]) for k in spec.kinds) if len(spec.kinds) > 1 else (),
             ),
             step=0,
             source="broadcast",

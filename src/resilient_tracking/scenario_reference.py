@@ -104,6 +104,8 @@ def type_name(annotation: Any) -> str:
         item = _strip(get_args(annotation)[0])
         if get_origin(item) is tuple:
             return "list of points"
+        if get_origin(item) is Literal:
+            return f"list of {type_name(item)}"
         return "list of mappings"
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         if _builtin_specs(annotation) is not None:

@@ -140,10 +140,9 @@ def zones_at(zones: pd.DataFrame, tracks: pd.DataFrame, step: int | None) -> pd.
         tracks = tracks[tracks["step"] <= step]
     last = tracks.sort_values("step", kind="stable").groupby("zone").tail(1).set_index("zone")
     out = zones.copy()
-    for row, zone in enumerate(out["zone"].tolist()):
-        if zone in last.index:
-            for col in ("mu_x", "mu_y", "true_x", "true_y"):
-                out.iloc[row, out.columns.get_loc(col)] = last.at[zone, col]
+    for col in ("mu_x", "mu_y", "true_x", "true_y"):
+        moved = out["zone"].map(last[col])
+        out[col] = moved.where(moved.notna(), out[col])
     return out
 
 

@@ -14,8 +14,8 @@ import numpy as np
 from resilient_tracking.observation import FailureKind, ZoneClue
 from resilient_tracking.scenario import CommZone, SensingZone
 from resilient_tracking.world.hazard_model import HAZARDS, HazardModel
-from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
 from resilient_tracking.world.hazards import DiskHazardModel, GaussianHazardModel, gaussian_pdf
+from resilient_tracking.world.target_motion import MOTIONS, TargetMotion
 
 __all__ = [
     "DiskHazardModel",
