@@ -9,8 +9,10 @@ import pytest
 
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.build import zone_map
+from resilient_tracking.runs.reading import run_data
 from resilient_tracking.scenario import ScenarioError, parse_scenario
 from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.viz.trajectories import plot_trajectory_map, zones_at
 from resilient_tracking.world import World
 
 STILL = {"type": "constant_velocity", "velocity": [0.0, 0.0]}
@@ -237,3 +239,15 @@ def test_a_zone_of_two_kinds_needs_both_sizes() -> None:
     with pytest.raises(ScenarioError) as err:
         scenario([data])
     assert any(p.startswith("zones.0.delta2:") for p in err.value.problems)
+
+
+def test_maps_draw_a_moving_zone_where_it_is_at_the_frame() -> None:
+    moving = sensing(motion={"type": "constant_velocity", "velocity": VELOCITY})
+    tables = run_episode(scenario([sensing(mu=[-1.0, -1.0]), moving]), "vanilla", seed=1).tables
+    at = zones_at(tables["zones"], tables["zone_tracks"], 10).set_index("zone")
+    row = tables["zone_tracks"].query("zone == 1 and step == 10").iloc[0]
+    assert (at.at[1, "true_x"], at.at[1, "mu_y"]) == (row["true_x"], row["mu_y"])
+    assert at.at[0, "true_x"] == tables["zones"].set_index("zone").at[0, "true_x"]
+    run = run_data(run_episode(scenario([both(), moving]), "vanilla", 1))
+    ax = plot_trajectory_map(run, None, until_step=10)
+    assert len(ax.patches) >= 3  # the disk and ellipse of the zone of two kinds, the other disk
