@@ -25,8 +25,9 @@ def bad_copy(tmp_path, mutate):
 
 def test_validate_accepts_every_shipped_scenario(capsys):
     paths = sorted(str(p) for p in SCENARIOS.glob("*.yaml"))
-    # the paper's six, three benchmarks, the soak, bearing-only, two evasive and two lure ones
-    assert len(paths) == 15
+    # the paper's six, three benchmarks, the soak, bearing-only, two evasive and two lure ones,
+    # two with a moving zone and one with a zone of two kinds
+    assert len(paths) == 18
     assert main(["validate", *paths]) == 0
     assert capsys.readouterr().out.count(": ok") == len(paths)
 
