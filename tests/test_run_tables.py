@@ -13,6 +13,7 @@ from helpers import shipped
 from resilient_tracking.events import EVENT_NAMES, Event
 from resilient_tracking.runs import reference
 from resilient_tracking.runs.schema import ALL_TABLES, TABLES
+from resilient_tracking.scenario import parse_scenario
 from resilient_tracking.sim.episode import run_episode
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -61,7 +62,10 @@ def _declared(dtype: str, actual: object) -> bool:
 
 @pytest.fixture(scope="module")
 def recorded() -> dict[str, pd.DataFrame]:
-    return run_episode(shipped("combined-perm").with_overrides(steps=120), seed=7).tables
+    data = shipped("combined-perm").with_overrides(steps=120).model_dump(mode="json")
+    # a zone that moves, so that the zone_tracks table has rows too
+    data["zones"][0]["motion"] = {"type": "constant_velocity", "velocity": [0.01, 0.0]}
+    return run_episode(parse_scenario(data), seed=7).tables
 
 
 def test_an_episode_records_every_declared_column_with_its_dtype(recorded):

@@ -53,7 +53,7 @@ def world(
 
 def compromise(w: World, robot: int, zone: int = 0) -> None:
     """The zone's hazard attack on ``robot`` now (as its draw would make it)."""
-    w._fail(robot, w.zones[zone], "hazard")
+    w._fail(robot, w.zones[zone], "hazard", "comm")
 
 
 def steps(w: World, n: int) -> list[Attack]:

@@ -82,20 +82,22 @@ def zone_map(scenario: Scenario) -> list[ZoneEstimate]:
     first tick: each zone's prior ``μ, Σ``, size and persistence, exactly what an attack clue
     reveals (docs/model.md §3), as if broadcast; never its true centre."""
     return [
-        ZoneEstimate.from_clue(
+        estimate
+        for k, spec in enumerate(scenario.zones)
+        if spec.known
+        for estimate in ZoneEstimate.all_from_clue(
             ZoneClue(
                 zone_id=k,
-                kind=spec.kind,
+                kind=spec.kinds[0],
                 mu=np.asarray(spec.mu, dtype=float),
                 sigma=np.asarray(spec.sigma, dtype=float),
-                size=float(spec.size),
+                size=float(spec.sizes[spec.kinds[0]]),
                 persistence=spec.persistence,
+                modes=tuple((k, spec.sizes[k]) for k in spec.kinds) if len(spec.kinds) > 1 else (),
             ),
             step=0,
             source="broadcast",
         )
-        for k, spec in enumerate(scenario.zones)
-        if spec.known
     ]
 
 

@@ -27,6 +27,9 @@ class ZoneClue:
     #: sensing: the zone radius ``r``; comm: the jamming strength ``δ2``.
     size: float
     persistence: Persistence
+    #: a zone that attacks several capabilities: each kind it attacks with its size (``r``,
+    #: ``δ2``); empty for a zone of one kind
+    modes: tuple[tuple[FailureKind, float], ...] = ()
 
 
 @dataclass(frozen=True)

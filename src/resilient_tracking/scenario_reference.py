@@ -104,6 +104,8 @@ def type_name(annotation: Any) -> str:
         item = _strip(get_args(annotation)[0])
         if get_origin(item) is tuple:
             return "list of points"
+        if get_origin(item) is Literal:
+            return f"list of {type_name(item)}"
         return "list of mappings"
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         if _builtin_specs(annotation) is not None:
@@ -210,14 +212,17 @@ def sections(model: type[BaseModel] = Scenario, path: str = "") -> Iterator[Sect
         models = _models(field.annotation)
         for sub in models:
             if len(models) > 1:
-                tag, literal = next(  # the discriminator: a Literal of one value
-                    (n, get_args(_strip(f.annotation))[0])
-                    for n, f in sub.model_fields.items()
-                    if get_origin(_strip(f.annotation)) is Literal
-                    and len(get_args(_strip(f.annotation))) == 1
-                )
+                variant = getattr(sub, "variant", None)  # a variant tagged by more than a Literal
+                if variant is None:
+                    tag, literal = next(  # the discriminator: a Literal of one value
+                        (n, get_args(_strip(f.annotation))[0])
+                        for n, f in sub.model_fields.items()
+                        if get_origin(_strip(f.annotation)) is Literal
+                        and len(get_args(_strip(f.annotation))) == 1
+                    )
+                    variant = f"{tag}: {literal}"
                 for s in sections(sub, child):
-                    yield (Section(s.path, s.model, f"{tag}: {literal}") if s.model is sub else s)
+                    yield (Section(s.path, s.model, variant) if s.model is sub else s)
             else:
                 yield from sections(sub, child)
     if model is PolicySpec:  # each built-in policy's own Params, under its name

@@ -10,7 +10,7 @@ and a zone of a hazard map (``broadcast`` before the first tick) to the clue of 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -55,6 +55,25 @@ class ZoneEstimate:
             learned_step=step,
             zone_id=clue.zone_id,
         )
+
+    @classmethod
+    def all_from_clue(
+        cls, clue: ZoneClue, step: int, source: Source = "attack"
+    ) -> list[ZoneEstimate]:
+        """Every estimate a clue gives: :meth:`from_clue`'s one; for a zone of several kinds
+        (``modes``), one per kind, keyed ``zone<id>-<kind>``, so each kind's constraint applies
+        (paper eq. 7c for sensing, 7d for comm)."""
+        if not clue.modes:
+            return [cls.from_clue(clue, step, source)]
+        return [
+            replace(
+                cls.from_clue(clue, step, source),
+                key=f"zone{clue.zone_id}-{kind}",
+                kind=kind,
+                size=float(size),
+            )
+            for kind, size in clue.modes
+        ]
 
     def mahalanobis(self, other: ZoneEstimate) -> float:
         """Mahalanobis distance between the two means under the summed covariances, ``√(dᵀ (Σ₁ +

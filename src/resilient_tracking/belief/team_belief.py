@@ -102,7 +102,8 @@ class TeamBelief:
             self._mapped = []
         if self.needs.zones:
             for attack in obs.attacks:
-                self._learn(attack.robot, ZoneEstimate.from_clue(attack.clue, obs.step))
+                for estimate in ZoneEstimate.all_from_clue(attack.clue, obs.step):
+                    self._learn(attack.robot, estimate)
         events += self._regroup(self._leagues_of(obs.links), obs.step)
         if self.last_step is not None:
             self.estimates = [self.predicted(k) for k in range(len(self.estimates))]

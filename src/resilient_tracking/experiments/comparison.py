@@ -108,7 +108,10 @@ class Study:
 
     def zone_kinds(self) -> dict[str, str]:
         """Each scenario's kind by label (:func:`~.generalization.zone_kind`)."""
-        return {label: zone_kind(z.kind for z in s.zones) for label, s in self.scenarios.items()}
+        return {
+            label: zone_kind(k for z in s.zones for k in z.kinds)
+            for label, s in self.scenarios.items()
+        }
 
 
 def parse_seeds(text: str, most: int) -> tuple[int, ...]:

@@ -36,6 +36,8 @@ class RunData:
     events: pd.DataFrame
     zones: pd.DataFrame
     knowledge: pd.DataFrame
+    #: where each moving zone was at each step (empty when no zone moves)
+    zone_tracks: pd.DataFrame = field(default_factory=pd.DataFrame)
     manifest: dict[str, Any] = field(default_factory=dict)
 
     @property

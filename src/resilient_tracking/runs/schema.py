@@ -228,6 +228,22 @@ ZONES = Table(
     note="truth, for plots only, never seen by robots",
 )
 
+ZONE_TRACKS = Table(
+    "zone_tracks",
+    "one per moving zone and step",
+    (
+        _c("step", "int64", "", "time step", "truth"),
+        _c("zone", "int64", "", "zone id", "truth"),
+        _c("mu_x", "float64", "m", "prior mean of the centre at this step", "truth"),
+        _c("mu_y", "float64", "m", "prior mean of the centre at this step", "truth"),
+        _c("true_x", "float64", "m", "true centre at this step", "truth"),
+        _c("true_y", "float64", "m", "true centre at this step", "truth"),
+    ),
+    keys=(),
+    optional=True,
+    note="truth, for plots only, never seen by robots; empty when no zone moves",
+)
+
 KNOWLEDGE = Table(
     "knowledge",
     "one per zone estimate learned",
@@ -249,7 +265,7 @@ KNOWLEDGE = Table(
 
 #: Every table of a run folder, by name, in the order they are written.
 TABLES: dict[str, Table] = {
-    t.name: t for t in (TEAM, ROBOTS, TARGETS, EVENTS, ZONES, KNOWLEDGE, TIMING)
+    t.name: t for t in (TEAM, ROBOTS, TARGETS, EVENTS, ZONES, ZONE_TRACKS, KNOWLEDGE, TIMING)
 }
 #: Tables that are identical, bit for bit, for the same scenario and seed.
 REPRODUCIBLE: tuple[str, ...] = tuple(n for n, t in TABLES.items() if t.reproducible)

@@ -16,7 +16,7 @@ import pandas as pd
 
 from resilient_tracking.events import Event
 from resilient_tracking.runs.records import ColumnTable
-from resilient_tracking.runs.schema import EVENTS, TARGETS, TEAM, ZONES
+from resilient_tracking.runs.schema import EVENTS, TARGETS, TEAM, ZONE_TRACKS, ZONES
 from resilient_tracking.sim.metrics import mse
 
 
@@ -72,7 +72,7 @@ def zone_table(zones: Sequence[ZoneTruth]) -> pd.DataFrame:
     for z in zones:
         table.append_row(
             zone=z.id,
-            name=z.spec.name or f"{z.kind[0].upper()}{z.id}",
+            name=z.spec.name or f"{'M' if '+' in z.kind else z.kind[0].upper()}{z.id}",
             kind=z.kind,
             persistence=z.spec.persistence,
             mu_x=z.mu[0],
@@ -87,6 +87,20 @@ def zone_table(zones: Sequence[ZoneTruth]) -> pd.DataFrame:
     return table.frame()
 
 
+def zone_tracks(zones: Sequence[ZoneTruth], steps: int) -> pd.DataFrame:
+    """The zone_tracks table: where each moving zone (one with a ``track``) was at each of the
+    first ``steps`` steps, zone by zone; no rows when no zone moves."""
+    tracks = [(z.id, [r for r in getattr(z, "track", ()) if r[0] < steps]) for z in zones]
+    table = ColumnTable(ZONE_TRACKS.numpy_dtypes(), max(1, sum(len(t) for _, t in tracks)))
+    for zone, rows in tracks:
+        if rows:
+            step, mu_x, mu_y, true_x, true_y = (np.array(c) for c in zip(*rows, strict=True))
+            table.append(
+                len(rows), step=step, zone=zone, mu_x=mu_x, mu_y=mu_y, true_x=true_x, true_y=true_y
+            )
+    return table.frame()
+
+
 class TruthRecorder:
     """Rows of truth's columns: the targets' true positions and the MSE of the team estimate."""
 
@@ -95,6 +109,7 @@ class TruthRecorder:
         self.targets = ColumnTable(TARGETS.numpy_dtypes("truth"), steps * n_targets)
         self.zones = zone_table(zones)
         self.events = ColumnTable(EVENTS.numpy_dtypes())
+        self._zones = zones
 
     def step(self, step: int, truth: np.ndarray, estimate: np.ndarray) -> None:
         """Record step ``step``: true positions ``truth`` (N, 2) and the team's estimated
@@ -109,10 +124,12 @@ class TruthRecorder:
             self.events.append_row(**{name: getattr(e, name) for name in EVENTS.names})
 
     def tables(self) -> dict[str, pd.DataFrame]:
-        """Truth's part of the team, targets and events tables, and the zones table."""
+        """Truth's part of the team, targets and events tables, the zones and zone_tracks
+        tables."""
         return {
             "team": self.team.frame(),
             "targets": self.targets.frame(),
             "events": self.events.frame() if len(self.events) else EVENTS.empty_frame(),
             "zones": self.zones,
+            "zone_tracks": zone_tracks(self._zones, len(self.team)),
         }

@@ -75,10 +75,12 @@ from resilient_tracking.scenario.zones import (
     GaussianHazard,
     Hazard,
     HazardSpec,
+    MultimodalZone,
     SensingZone,
     SpreadSpec,
     Zone,
     ZoneBase,
+    zone_tag,
 )
 
 __all__ = [
@@ -125,8 +127,10 @@ __all__ = [
     "ZoneBase",
     "SensingZone",
     "CommZone",
+    "MultimodalZone",
     "SpreadSpec",
     "Zone",
+    "zone_tag",
     "PolicySpec",
     "RouteSpec",
     "PlannerSpec",

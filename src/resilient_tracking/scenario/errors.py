@@ -47,8 +47,13 @@ def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
     parts: list[str] = []
     node, owner = data, None
     for part in loc:
-        tag = _UNION_TAG.get(owner) if isinstance(owner, str) and isinstance(node, dict) else None
-        if tag is not None and node.get(tag[0], tag[1]) == part:
+        tag: tuple[str, str | None] | None = (
+            _UNION_TAG.get(owner) if isinstance(owner, str) and isinstance(node, dict) else None
+        )
+        value: Any = node.get(tag[0], tag[1]) if tag is not None else None
+        if isinstance(value, list):  # a zone of several kinds: pydantic's tag is "multimodal"
+            value = "multimodal"
+        if tag is not None and value == part:
             owner = None
             continue
         parts.append(str(part))

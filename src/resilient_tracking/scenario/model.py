@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 from typing import Annotated, Any
 
@@ -76,6 +77,19 @@ def _motion_problems(
             f"(got {motion.angular_speed})"
         ]
     return []
+
+
+def _zone_motion_problems(motion: MotionSpec, path: str, start: tuple[float, float]) -> list[str]:
+    """What is wrong with a zone's motion starting at its prior mean ``start``: one that reacts
+    to the world (a zone moves on a script), or a circle that cannot be run."""
+    # the motion registry by name, as the spec union resolves it (scenario never imports world)
+    motions = importlib.import_module("resilient_tracking.world.target_motion").MOTIONS
+    if motions.get(motion.type).reacts:
+        return [
+            f"{path}.type: a zone's motion must not react to the world; choose a scripted "
+            f"motion such as constant_velocity, waypoints, circle or ncv (got {motion.type!r})"
+        ]
+    return _motion_problems(motion, path, start, {})
 
 
 class Scenario(Strict):
@@ -161,6 +175,9 @@ class Scenario(Strict):
                     f"must be unique (got {zone.name!r})"
                 )
             named.setdefault(zone.name, k)
+        for k, zone in enumerate(self.zones):
+            if zone.motion is not None:
+                out += _zone_motion_problems(zone.motion, f"zones.{k}.motion", zone.mu)
         for j, target in enumerate(self.targets):
             if not ws.contains(target.start):
                 out.append(f"targets.{j}.start: outside the workspace (got {list(target.start)})")

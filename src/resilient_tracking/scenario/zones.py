@@ -3,12 +3,14 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import (
+    Discriminator,
     Field,
     SerializeAsAny,
+    Tag,
     field_validator,
     model_validator,
 )
@@ -23,6 +25,7 @@ from resilient_tracking.scenario.base import (
     plugin_spec,
 )
 from resilient_tracking.scenario.effects import CommEffect, FailEffect, SensingEffect
+from resilient_tracking.scenario.world_specs import TargetMotion
 from resilient_tracking.spec import MAX_INTENSITY, MAX_LENGTH, MAX_RATE, MAX_RATIO
 
 # ---------------------------------------------------------------------------- danger zones
@@ -158,7 +161,26 @@ class ZoneBase(Strict):
         ),
     )
 
+    motion: TargetMotion | None = Field(
+        None,
+        description=(
+            "How the zone moves, selected by its type (the targets' motions, starting at μ); "
+            "the prior mean and the drawn centre shift by the motion's displacement. None: the "
+            "zone stays where it is. Motions that react to the world are refused."
+        ),
+    )
+
     _sigma_ok = field_validator("sigma")(_check_covariance)
+
+    @property
+    def kinds(self) -> tuple[Literal["sensing", "comm"], ...]:
+        """The capabilities an attack of this zone disables."""
+        raise NotImplementedError
+
+    @property
+    def sizes(self) -> dict[str, float]:
+        """What an attack clue reports as the zone's size, per kind."""
+        raise NotImplementedError
 
 
 class SpreadSpec(Strict):
@@ -211,6 +233,16 @@ class SensingZone(ZoneBase):
         """What an attack clue reports as the zone's size: the radius ``r``."""
         return self.radius
 
+    @property
+    def kinds(self) -> tuple[Literal["sensing", "comm"], ...]:
+        """``("sensing",)``."""
+        return ("sensing",)
+
+    @property
+    def sizes(self) -> dict[str, float]:
+        """``{"sensing": r}``."""
+        return {"sensing": self.radius}
+
 
 class CommZone(ZoneBase):
     """A comm danger zone (paper eq. 5): an attack disables the robot's radio, and its jammer cuts a
@@ -262,5 +294,77 @@ class CommZone(ZoneBase):
         """What an attack clue reports as the zone's size: the jammer strength ``δ2``."""
         return self.delta2
 
+    @property
+    def kinds(self) -> tuple[Literal["sensing", "comm"], ...]:
+        """``("comm",)``."""
+        return ("comm",)
 
-Zone = Annotated[SensingZone | CommZone, Field(discriminator="kind")]
+    @property
+    def sizes(self) -> dict[str, float]:
+        """``{"comm": δ2}``."""
+        return {"comm": self.delta2}
+
+
+class MultimodalZone(SensingZone, CommZone):  # type: ignore[misc]
+    """A zone that attacks both the sensor and the radio: one hazard draw disables both (each
+    failure with the zone's persistence), its disk has the radius ``r`` and its jammer the
+    strength ``δ2``; a clue tells the victim both kinds."""
+
+    #: how the scenario reference names this variant (its ``kind`` is a list)
+    variant: ClassVar[str] = "kind: [sensing, comm]"
+
+    kind: list[Literal["sensing", "comm"]] = Field(  # type: ignore[assignment]
+        description=(
+            "[sensing, comm]: an attack disables the robot's sensor and its radio; the zone "
+            "also jams links."
+        ),
+        min_length=2,
+        max_length=2,
+    )
+    effect: FailEffect = Field(  # type: ignore[assignment]
+        FailEffect(),
+        description="What an attack does: a zone of two kinds fails both (it does not degrade).",
+    )
+
+    @field_validator("kind")
+    @classmethod
+    def _both_kinds(cls, value: list[str]) -> list[str]:
+        if set(value) != {"sensing", "comm"}:
+            raise ValueError("a list of kinds must name sensing and comm, once each")
+        return ["sensing", "comm"]
+
+    @property
+    def size(self) -> float:  # type: ignore[override]
+        """A multimodal zone has one size per kind: see :attr:`sizes`."""
+        raise AttributeError("a multimodal zone has one size per kind: use sizes")
+
+    @property
+    def kinds(self) -> tuple[Literal["sensing", "comm"], ...]:
+        """``("sensing", "comm")``."""
+        return ("sensing", "comm")
+
+    @property
+    def sizes(self) -> dict[str, float]:
+        """``{"sensing": r, "comm": δ2}``."""
+        return {"sensing": self.radius, "comm": self.delta2}
+
+
+def zone_tag(value: Any) -> str | None:
+    """Which zone variant a mapping (or model) is: its ``kind``, or ``multimodal`` for a list
+    of kinds."""
+    kind = value.get("kind") if isinstance(value, dict) else getattr(value, "kind", None)
+    if isinstance(kind, (list, tuple)):
+        return "multimodal"
+    return kind if isinstance(kind, str) else None
+
+
+Zone = Annotated[
+    Annotated[SensingZone, Tag("sensing")]
+    | Annotated[CommZone, Tag("comm")]
+    | Annotated[MultimodalZone, Tag("multimodal")],
+    Discriminator(
+        zone_tag,
+        custom_error_type="zone_kind",
+        custom_error_message=("kind must be sensing, comm or the list [sensing, comm]"),
+    ),
+]

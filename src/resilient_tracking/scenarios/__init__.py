@@ -1,8 +1,10 @@
 """The scenarios shipped with the package: the paper's six, the three benchmarks, a soak run,
 ``bearing-only`` (the sensing-temp mission with a bearing-only sensor), four with targets
 that react to the world: ``evasive-open``, ``evasive-zones``, ``lure-sensing`` and ``lure-comm``,
-two whose zones degrade instead of disabling: ``sensing-degrade`` and ``comm-degrade``, and
-``comm-spread`` (a permanent comm zone whose compromise spreads over links).
+two whose zones degrade instead of disabling: ``sensing-degrade`` and ``comm-degrade``,
+``comm-spread`` (a permanent comm zone whose compromise spreads over links), two with a moving
+zone: ``moving-sensing`` and ``moving-comm-perm``, and ``multimodal``, one zone attacking both
+the sensor and the radio.
 
 They are package data, so they are found the same way from a checkout, an editable install or
 a wheel, whatever the working directory. Every command that takes a scenario accepts either a

@@ -131,12 +131,40 @@ def _legend_proxy(ax: Axes, label: str, **kwargs: Any) -> None:
     ax.plot([], [], label=label, **kwargs)
 
 
+def zones_at(zones: pd.DataFrame, tracks: pd.DataFrame, step: int | None) -> pd.DataFrame:
+    """The zones table with each moving zone where it was at ``step`` (its last recorded step
+    when ``None`` or later); static zones as they are."""
+    if tracks.empty or zones.empty:
+        return zones
+    if step is not None:
+        tracks = tracks[tracks["step"] <= step]
+    last = tracks.sort_values("step", kind="stable").groupby("zone").tail(1).set_index("zone")
+    out = zones.copy()
+    for col in ("mu_x", "mu_y", "true_x", "true_y"):
+        moved = out["zone"].map(last[col])
+        out[col] = moved.where(moved.notna(), out[col])
+    return out
+
+
+def _draw_zone_tracks(ax: Axes, tracks: pd.DataFrame, step: int | None) -> None:
+    """The path of each moving zone's true centre up to ``step``."""
+    if tracks.empty:
+        return
+    if step is not None:
+        tracks = tracks[tracks["step"] <= step]
+    for _, track in tracks.sort_values(["zone", "step"], kind="stable").groupby("zone"):
+        ax.plot(track["true_x"], track["true_y"], ls=":", lw=1.0, color="0.35", zorder=1)
+
+
 def _draw_true_zones(ax: Axes, zones: pd.DataFrame) -> None:
     have_sensing = have_comm = False
     for z in zones.to_dict(orient="records"):
-        kind = str(z["kind"])
+        kinds = str(z["kind"]).split("+")  # a zone of several kinds: "sensing+comm"
+        if not set(kinds) <= {"sensing", "comm"}:
+            logger.warning("zone %s has unknown kind %r; not drawn", z["zone"], z["kind"])
+            continue
         tx, ty = float(z["true_x"]), float(z["true_y"])
-        if kind == "sensing":
+        if "sensing" in kinds:
             ax.add_patch(
                 Circle(
                     (tx, ty),
@@ -149,7 +177,7 @@ def _draw_true_zones(ax: Axes, zones: pd.DataFrame) -> None:
                 )
             )
             have_sensing = True
-        elif kind == "comm":
+        if "comm" in kinds:
             ring = covariance_ellipse(
                 float(z["mu_x"]),
                 float(z["mu_y"]),
@@ -176,9 +204,6 @@ def _draw_true_zones(ax: Axes, zones: pd.DataFrame) -> None:
                 zorder=4,
             )
             have_comm = True
-        else:
-            logger.warning("zone %s has unknown kind %r; not drawn", z["zone"], kind)
-            continue
         ax.plot(
             [float(z["mu_x"])], [float(z["mu_y"])], marker="+", ms=9, mew=1.4, color="k", zorder=4
         )
@@ -385,7 +410,8 @@ def plot_trajectory_map(
     targets = targets.sort_values(["target", "step"], kind="stable")
 
     _set_limits(ax, run)
-    _draw_true_zones(ax, run.zones)
+    _draw_true_zones(ax, zones_at(run.zones, run.zone_tracks, until_step))
+    _draw_zone_tracks(ax, run.zone_tracks, until_step)
     _draw_known_zones(ax, known_zones_at(run.knowledge, until_step))
     _draw_targets(ax, targets)
     _draw_robots(ax, robots)

@@ -6,6 +6,9 @@ class: ``Spec``, the pydantic model of its parameters (a subclass of
 a zone with its true center drawn, and :meth:`HazardModel.probability`. Register it with
 ``@HAZARDS.register("name")`` or an entry point of the group ``resilient_tracking.hazards``; a
 scenario selects it with ``hazard: {model: name, ...}`` (or ``model: package.module:Class``).
+
+A zone with a ``motion`` moves its ``mu`` and ``center`` arrays in place each step: a model that
+keeps those arrays (as the built-ins do) moves with the zone; one that copies them stays put.
 """
 
 from __future__ import annotations

@@ -46,8 +46,8 @@ class Failure:
 def zone_truth(zone: TrueZone) -> ZoneTruth:
     """What a reacting target motion sees of a zone: its truth (and its hazard disk's radius,
     a sensing zone's ``r`` or a comm zone's ``m_recover · √λmax(Σ)``)."""
-    if zone.kind == "sensing":
-        radius = float(zone.size)
+    if "sensing" in zone.kinds:
+        radius = float(zone.sizes["sensing"])
     else:
         radius = float(zone.spec.m_recover * np.sqrt(np.linalg.eigvalsh(zone.sigma).max()))
     center, mu, sigma = (np.array(a, dtype=float) for a in (zone.center, zone.mu, zone.sigma))
@@ -81,6 +81,9 @@ class World:
         self._rng_measurements = stream(seed, "measurements")
         self._rng_targets = stream(seed, "target_motion")
         self.zones = make_zones(scenario, seed)
+        #: the zones with a motion, and the stream their random motions draw from
+        self._moving = [z for z in self.zones if z.moves]
+        self._rng_zones = stream(seed, "zone_motion")
         self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
         self._lower, self._upper = scenario.workspace.lower, scenario.workspace.upper
@@ -95,10 +98,10 @@ class World:
         }
         self._pending_attacks: list[Attack] = []
         self._pending_recoveries: list[tuple[int, FailureKind]] = []
-        self._comm_zones = [z for z in self.zones if z.kind == "comm"]
-        # the comm zones' true centres and δ2 never change: arrays once
+        self._comm_zones = [z for z in self.zones if "comm" in z.kinds]
+        # the comm zones' true centres (unless they move) and δ2 never change: arrays once
         self._jammer_centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
-        self._jammer_deltas = np.array([z.size for z in self._comm_zones], dtype=float)
+        self._jammer_deltas = np.array([z.sizes["comm"] for z in self._comm_zones], dtype=float)
         #: partial degradations by zones whose effect is ``degrade`` (truth only)
         self.degradations = Degradations(scenario, seed)
         #: spread probability per step of each zone's compromise (0: it does not spread)
@@ -240,11 +243,21 @@ class World:
 
     def _after_move(self) -> None:
         self.step_index += 1
+        if self._moving:
+            self._move_zones()
         self._draw_attacks()
         if self._rng_spread is not None:
             self._pass_on(self._rng_spread)
         self._recover()
         self.links = self._compute_links()
+
+    def _move_zones(self) -> None:
+        """Advance the moving zones (draws from the ``zone_motion`` stream, zones in order) and
+        refresh what depends on where they are."""
+        for zone in self._moving:
+            zone.move(self.dt, self._rng_zones, self.step_index)
+        self._zone_truths = tuple(zone_truth(z) for z in self.zones)
+        self._jammer_centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
 
     def _draw_attacks(self) -> None:
         # One uniform per (zone, robot) every step, whatever the state: common random numbers.
@@ -256,7 +269,8 @@ class World:
                     if zone.spec.effect.type == "degrade":
                         self._degrade(robot, zone)
                     else:
-                        self._fail(robot, zone, "hazard")
+                        for kind in zone.kinds:  # one draw disables every capability it attacks
+                            self._fail(robot, zone, "hazard", kind)
 
     def _degrade(self, robot: int, zone: TrueZone) -> None:
         """A degrading zone's attack; announced, the robot learns of it as of a failure."""
@@ -290,13 +304,14 @@ class World:
         for target in np.flatnonzero(hit.any(axis=0)).tolist():
             source = int(np.flatnonzero(hit[:, target])[0])
             zone = self.zones[cast(Failure, self.failures["comm"][source]).zone_id]
-            self._fail(target, zone, "spread", source)
+            self._fail(target, zone, "spread", "comm", source)
             log.debug(
                 "step %d: robot %d compromised robot %d's radio", self.step_index, source, target
             )
 
-    def _fail(self, robot: int, zone: TrueZone, cause: str, source: int = -1) -> None:
-        kind: FailureKind = "sensing" if zone.kind == "sensing" else "comm"
+    def _fail(
+        self, robot: int, zone: TrueZone, cause: str, kind: FailureKind, source: int = -1
+    ) -> None:
         current = self.failures[kind][robot]
         persistence = zone.spec.persistence if cause != "jamming" else "temporary"
         if current is not None:
@@ -306,7 +321,7 @@ class World:
             if persistence == "temporary" and not replaces_jamming:
                 return  # a temporary hit on a capability that is already down changes nothing
         self.failures[kind][robot] = Failure(persistence, zone.id, self.step_index, cause, source)
-        self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(), cause=cause))  # type: ignore[arg-type]
+        self._pending_attacks.append(Attack(robot=robot, clue=zone.clue(kind), cause=cause))  # type: ignore[arg-type]
 
     def _recover(self) -> None:
         for kind in ("sensing", "comm"):
@@ -346,7 +361,7 @@ class World:
             isolated = any_possible[robot] and not any_link[robot]
             if isolated and failure is None:
                 worst = int(np.argmax(jammed[:, robot, :].sum(axis=1)))
-                self._fail(robot, self._comm_zones[worst], "jamming")
+                self._fail(robot, self._comm_zones[worst], "jamming", "comm")
             elif not isolated and failure is not None and failure.cause == "jamming":
                 self.failures["comm"][robot] = None
                 self._pending_recoveries.append((robot, "comm"))
