@@ -2,7 +2,8 @@
 
 The belief always keeps the leagues and one target estimate per league. Beyond that a policy
 may ask for zone knowledge (attack clues learned and shared within leagues; a vanilla team
-keeps none) and for comm zones inferred from silent teammates (the paper's Alg. 3).
+keeps none), for comm zones inferred from silent teammates (the paper's Alg. 3) and for zone
+estimates that age and move (:mod:`~resilient_tracking.belief.zone_motion`).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from resilient_tracking.belief.silent_robots import SilentRobotSettings
+from resilient_tracking.belief.zone_motion import ZoneMotionSettings
 
 
 @dataclass(frozen=True)
@@ -20,3 +22,6 @@ class BeliefNeeds:
     zones: bool = True
     #: infer comm zones from silent teammates with these settings (``None``: do not)
     silent_robots: SilentRobotSettings | None = None
+    #: track identified zones' motion from successive clues with these settings (``None``:
+    #: zone estimates stay where they were learned)
+    zone_motion: ZoneMotionSettings | None = None

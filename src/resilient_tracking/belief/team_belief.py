@@ -17,7 +17,10 @@ Each tick (docs/model.md §3–4):
 6. knowledge is merged within each league;
 7. if the policy needs it (:class:`~resilient_tracking.belief.needs.BeliefNeeds`), robots
    with links watch silent ones and learn the comm zones they reveal
-   (:mod:`resilient_tracking.belief.silent_robots`, Alg. 3).
+   (:mod:`resilient_tracking.belief.silent_robots`, Alg. 3);
+8. if the policy needs it, every clue of an identified zone also feeds its victim's track of
+   the zone's motion, shared within leagues with the knowledge
+   (:mod:`resilient_tracking.belief.zone_motion`; :meth:`TeamBelief.plan_knowledge`).
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.modes import ModeStates
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.silent_robots import SilentRobotWatch
+from resilient_tracking.belief.zone_motion import ZoneMotionTracker
 from resilient_tracking.events import Event
 from resilient_tracking.models.graph import components
 from resilient_tracking.observation import TeamObservation
@@ -63,6 +67,9 @@ class TeamBelief:
         #: infers comm zones from silent teammates at the end of each update (or ``None``)
         settings = self.needs.silent_robots
         self.silent_robot_watch = None if settings is None else SilentRobotWatch(settings)
+        motion = self.needs.zone_motion
+        #: tracks of the zones' motion from successive clues (or ``None``: zones stay put)
+        self.zone_motion = None if motion is None else ZoneMotionTracker(n_robots, motion)
         self.leagues: list[list[int]] = [list(range(n_robots))]
         self.league_of = np.zeros(n_robots, dtype=int)
         self.estimates: list[TargetEstimate] = [initial]  # one per league
@@ -99,11 +106,15 @@ class TeamBelief:
                 for zone in self._mapped:
                     for robot in range(self.n_robots):
                         self._learn(robot, replace(zone, learned_step=obs.step))
+                        if self.zone_motion is not None:
+                            self.zone_motion.observe(robot, zone, obs.step)
             self._mapped = []
         if self.needs.zones:
             for attack in obs.attacks:
                 for estimate in ZoneEstimate.all_from_clue(attack.clue, obs.step):
                     self._learn(attack.robot, estimate)
+                    if self.zone_motion is not None:
+                        self.zone_motion.observe(attack.robot, estimate, obs.step)
         events += self._regroup(self._leagues_of(obs.links), obs.step)
         if self.last_step is not None:
             self.estimates = [self.predicted(k) for k in range(len(self.estimates))]
@@ -121,6 +132,8 @@ class TeamBelief:
         self._predicted = [None] * len(self.estimates)
         if self.needs.zones:
             self._share_knowledge()
+            if self.zone_motion is not None:
+                self.zone_motion.share(self.leagues)
             if self.silent_robot_watch is not None:
                 events += self.silent_robot_watch.observe(self, obs)
         return events
@@ -224,6 +237,15 @@ class TeamBelief:
     def league_knowledge(self, league: list[int]) -> KnowledgeBase:
         """Knowledge shared within a league (identical for its members after a tick)."""
         return self.knowledge[league[0]]
+
+    def plan_knowledge(self, league: list[int], step: int) -> KnowledgeBase:
+        """The league's knowledge as planned against at ``step``: with zone motion, each
+        tracked zone predicted to ``step`` (:meth:`ZoneMotionTracker.predicted`); else as
+        learned."""
+        knowledge = self.league_knowledge(league)
+        if self.zone_motion is None:
+            return knowledge
+        return self.zone_motion.predicted(league, knowledge, step)
 
     def team_estimate(self) -> TargetEstimate:
         """The estimate of the league with most sensing robots; ties go to the lower trace."""

@@ -27,6 +27,7 @@ from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.silent_robots import SilentRobotSettings
 from resilient_tracking.belief.team_belief import TeamBelief
+from resilient_tracking.belief.zone_motion import ZoneMotionSettings
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
@@ -96,9 +97,11 @@ class FailureAwarePolicy(PlanningPolicy):
     # ------------------------------------------------------------------ the tick
 
     def belief_needs(self) -> BeliefNeeds:
-        """Zone knowledge, and comm zones inferred from silent teammates (Alg. 3)."""
+        """Zone knowledge, comm zones inferred from silent teammates (Alg. 3), and with
+        ``zone_motion`` the zones' motion tracked from successive clues."""
         params = self.params
         fit = params.circle_fit
+        motion = params.zone_motion
         return BeliefNeeds(
             zones=True,
             silent_robots=SilentRobotSettings(
@@ -117,6 +120,16 @@ class FailureAwarePolicy(PlanningPolicy):
                 silence_std=params.silence_std,
                 comm_range=self.config.comm_range,
             ),
+            zone_motion=ZoneMotionSettings(
+                dt=self.config.dt,
+                accel_std=motion.accel_std,
+                speed_std=motion.speed_std,
+                mean_std=motion.mean_std,
+                max_std=motion.max_std,
+                refresh=motion.refresh,
+            )
+            if motion.enabled
+            else None,
         )
 
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
@@ -132,7 +145,8 @@ class FailureAwarePolicy(PlanningPolicy):
             self.quarantine.observe(obs)
 
         for k, robots in enumerate(belief.leagues):
-            knowledge = belief.league_knowledge(robots)
+            # with zone motion, the zones as predicted at the planned step (x⁺)
+            knowledge = belief.plan_knowledge(robots, obs.step + 1)
             if len(robots) == 1 and obs.comm_persistence[robots[0]] == "permanent":
                 self._circle(robots[0], knowledge, obs, decision)
                 continue

@@ -8,6 +8,7 @@ import numpy as np
 from pydantic import Field
 
 from resilient_tracking.spec import (
+    MAX_ACCEL,
     MAX_POSITION_STD,
     MAX_RATIO,
     MAX_SPEED,
@@ -185,6 +186,71 @@ class QuarantineParams(Strict):
     )
 
 
+class ZoneMotionParams(Strict):
+    """Zone estimates that age and move (the ``zone_motion`` of the failure-aware policy,
+    docs/model.md §6.3): a nearly-constant-velocity Kalman filter per identified zone, fed with
+    the means of successive clues."""
+
+    enabled: bool = Field(
+        False,
+        description=(
+            "Beyond the paper: each identified zone's clues feed a filter of its mean and"
+            " velocity; the team plans against the zone predicted at plan time, its spread"
+            " grown by the filter's position uncertainty. false, the default: zone estimates"
+            " stay where they were learned (the paper's team)."
+        ),
+    )
+    accel_std: float = Field(
+        0.02,
+        ge=0,
+        le=MAX_ACCEL,
+        description=(
+            "Process noise: white-noise acceleration of the nearly-constant-velocity model"
+            " (spectral density accel_std²)."
+        ),
+        json_schema_extra={"unit": "m/s²"},
+    )
+    speed_std: float = Field(
+        0.05,
+        ge=0,
+        le=MAX_SPEED,
+        description=(
+            "Prior standard deviation of a zone's velocity (each axis) before its second clue:"
+            " how fast the knowledge of a zone seen once grows uncertain."
+        ),
+        json_schema_extra={"unit": "m/s"},
+    )
+    mean_std: float = Field(
+        0.05,
+        gt=0,
+        le=MAX_POSITION_STD,
+        description=(
+            "Measurement noise of a clue's mean (a clue gives the zone's prior mean as it is at"
+            " the attack; its covariance is the zone's own spread, kept apart)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    max_std: float = Field(
+        1.0,
+        ge=0,
+        le=MAX_POSITION_STD,
+        description=(
+            "Cap on the standard deviation (largest axis) the filter adds to a zone's spread;"
+            " 0: no cap."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    refresh: Length = Field(
+        0.1,
+        description=(
+            "Distance the predicted zone (its mean, or its largest standard deviation) moves"
+            " before the team replans around the new prediction; keeps zone rows and route"
+            " maps from being rebuilt every step. 0: every step."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+
+
 class FailureAwareParams(Strict):
     """Algorithm 1 with adaptive weights, cool-down, circular evasion and circle inference."""
 
@@ -321,4 +387,12 @@ class FailureAwareParams(Strict):
     quarantine_keep_out: QuarantineParams = Field(
         QuarantineParams(),
         description="How long a quarantine lasts and how far robots keep from a quarantined robot.",
+    )
+    zone_motion: ZoneMotionParams = Field(
+        ZoneMotionParams(),
+        description=(
+            "Beyond the paper: zone estimates that move with a velocity estimated from"
+            " successive clues and grow uncertain with time since the last one"
+            " (docs/model.md §6.3); off by default."
+        ),
     )
