@@ -211,7 +211,7 @@ class ZoneMotionParams(Strict):
         json_schema_extra={"unit": "m/s²"},
     )
     speed_std: float = Field(
-        0.05,
+        0.02,
         ge=0,
         le=MAX_SPEED,
         description=(
