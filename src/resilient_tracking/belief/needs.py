@@ -2,13 +2,15 @@
 
 The belief always keeps the leagues and one target estimate per league. Beyond that a policy
 may ask for zone knowledge (attack clues learned and shared within leagues; a vanilla team
-keeps none) and for comm zones inferred from silent teammates (the paper's Alg. 3).
+keeps none), for comm zones inferred from silent teammates (the paper's Alg. 3) and for a watch
+on silently degraded sensors.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from resilient_tracking.belief.degradation_watch import DegradationWatchSettings
 from resilient_tracking.belief.silent_robots import SilentRobotSettings
 
 
@@ -20,3 +22,6 @@ class BeliefNeeds:
     zones: bool = True
     #: infer comm zones from silent teammates with these settings (``None``: do not)
     silent_robots: SilentRobotSettings | None = None
+    #: find silently degraded sensors and adapt their noise with these settings (``None``:
+    #: do not; docs/model.md §6.3)
+    degradation: DegradationWatchSettings | None = None
