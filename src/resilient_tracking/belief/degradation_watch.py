@@ -11,7 +11,14 @@ measurements is compared with its league's *predicted* estimate (the prior of th
   ``λ₁ = design_factor²`` (``S`` taken as ``λ₁ S`` under the alternative) against the nominal
   one, ``ℓ(q) = −(D/2) ln λ₁ + ½ (1 − 1/λ₁) min(q, nis_cap)``, summed over the robot's
   measurements of the tick: ``g ← max(0, g + Σ ℓ)``, a detection when ``g > threshold``. The cap
-  bounds what one outlier (a linearisation far off next to a target) can add.
+  bounds what one outlier (a linearisation far off next to a target) can add. A detection
+  restarts the CUSUM of the league's other members: until it, the found robot's measurements
+  pulled the league's estimate, and their evidence was against that. The CUSUM starts
+  ``warmup`` steps after the first tick: the first updates from the wide initial prior, next to
+  a target, leave the paper's EKF overconfident for a few seconds, which reads as a degraded
+  sensor (docs/model.md §6.3).
+* **Curvature.** ``S`` also carries each channel's second-order term ``½ tr(H″_c P H″_c P)``,
+  what the prior's spread does to a measurement taken next to the target.
 * **Adaptation.** ``E[ν̃ᵀ R⁻¹ ν̃] = tr(R⁻¹ H P⁻_pp Hᵀ) + λ D`` for a noise variance ``λ R``, so
   ``λ̂`` is the ratio of the sums of ``ν̃ᵀ R⁻¹ ν̃ − tr(R⁻¹ H P Hᵀ)`` and ``D`` over the robot's
   measurements, exponentially forgotten over ``memory`` steps, started at detection from the
@@ -55,6 +62,8 @@ class DegradationWatchSettings:
     design_factor: float = 2.0
     #: CUSUM threshold (a log-likelihood ratio)
     threshold: float = 20.0
+    #: steps from the first tick before the CUSUM starts (the filter settles from its prior)
+    warmup: int = 30
     #: cap on one measurement's NIS in the CUSUM
     nis_cap: float = 20.0
     #: steps over which the noise estimate forgets (exponential)
@@ -63,7 +72,7 @@ class DegradationWatchSettings:
     max_factor: float = 20.0
     #: radius (m) and spread (m) of the sensing zone learned where a degradation is found
     zone_radius: float = 0.5
-    zone_std: float = 0.3
+    zone_std: float = 0.5
     #: whether a detection teaches the robot a sensing zone (teams that keep zone knowledge)
     learn_zone: bool = True
 
@@ -88,6 +97,8 @@ class DegradationWatch:
         # exponentially forgotten (after detection)
         self._since = np.zeros((n_robots, 2))
         self._sums = np.zeros((n_robots, 2))
+        #: the first tick seen
+        self._first_step: int | None = None
 
     # ------------------------------------------------------------------ queries
 
@@ -124,8 +135,12 @@ class DegradationWatch:
         """Take in the measurements of ``robots`` (one league's sensing members, at
         ``positions`` ``(K, 2)``, ``measurements`` ``(K, N, D)``, NaN where none) against the
         league's prior; return a ``degradation_detected`` event per robot found degraded now."""
-        q, excess, dof = self._consistency(prior, positions, measurements)
         s = self.settings
+        if self._first_step is None:
+            self._first_step = step
+        if step < self._first_step + s.warmup:
+            return []
+        q, excess, dof = self._consistency(prior, positions, measurements)
         events: list[Event] = []
         llr = self._llr_offset + self._llr_slope * np.minimum(q, s.nis_cap)
         llr = np.where(np.isfinite(q), llr, 0.0).sum(axis=1)
@@ -146,6 +161,10 @@ class DegradationWatch:
             self._since[robot] += sample
             if g > s.threshold:
                 events.append(self._detect(belief, step, robot, positions[row]))
+        if events:  # the others' evidence was against a prior the found robot spoilt
+            others = [i for i in robots if self.detected_step[i] < 0]
+            self.cusum[others] = 0.0
+            self._since[others] = 0.0
         return events
 
     # ------------------------------------------------------------------ pieces
@@ -199,11 +218,18 @@ class DegradationWatch:
         innov = np.where(valid[..., None], z - h, 0.0)
         for channel in sensor.ANGLES:
             innov[..., channel] = wrap_angle(innov[..., channel])
-        hph = hjac @ prior.cov[None, :, :2, :2] @ np.swapaxes(hjac, -1, -2)  # (K, N, D, D)
-        s_mat = hph + var[..., None] * np.eye(sensor.DIM)
+        p_pp = prior.cov[None, :, :2, :2]
+        hph = hjac @ p_pp @ np.swapaxes(hjac, -1, -2)  # (K, N, D, D)
+        # the prior's spread seen through the measurement's curvature, ½ tr(H″_c P H″_c P)
+        # (second-order EKF): next to a target a bearing varies far more than H P Hᵀ says
+        hp = sensor.hessian(robots[:, None, :], prior.mean[None, :, :2]) @ p_pp[:, :, None]
+        spread = np.diagonal(hph, axis1=-2, axis2=-1) + 0.5 * np.einsum("kncab,kncba->knc", hp, hp)
+        s_mat = hph + (var + spread - np.diagonal(hph, axis1=-2, axis2=-1))[..., None] * np.eye(
+            sensor.DIM
+        )
         q = np.einsum("kna,kna->kn", innov, np.linalg.solve(s_mat, innov[..., None])[..., 0])
         q = np.where(valid, q, np.nan)
-        weighted = innov**2 / var - np.diagonal(hph, axis1=-2, axis2=-1) / var
+        weighted = (innov**2 - spread) / var
         excess = np.where(valid, weighted.sum(axis=-1), 0.0).sum(axis=1)
         dof = sensor.DIM * valid.sum(axis=1)
         return q, excess, dof

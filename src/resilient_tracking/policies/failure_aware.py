@@ -107,6 +107,7 @@ class FailureAwarePolicy(PlanningPolicy):
                 sensor=self.config.sensor,
                 design_factor=watch.design_factor,
                 threshold=watch.threshold,
+                warmup=watch.warmup,
                 nis_cap=watch.nis_cap,
                 memory=watch.memory,
                 max_factor=watch.max_factor,

@@ -218,6 +218,16 @@ class DegradationWatchParams(Strict):
             " detections."
         ),
     )
+    warmup: int = Field(
+        30,
+        ge=0,
+        le=MAX_STEP_COUNT,
+        description=(
+            "Steps from the first tick before the CUSUM starts: the filter first settles from"
+            " its wide initial prior."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
     nis_cap: float = Field(
         20.0,
         gt=0,
@@ -247,7 +257,7 @@ class DegradationWatchParams(Strict):
         json_schema_extra={"unit": "m"},
     )
     zone_std: float = Field(
-        0.3,
+        0.5,
         gt=0,
         le=MAX_POSITION_STD,
         description="Spread of the centre of the zone learned where a degradation is found.",
