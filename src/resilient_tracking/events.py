@@ -31,6 +31,7 @@ EventName = Literal[
     "zone_suspected",
     "zone_inferred",
     "target_suspected",
+    "degradation_detected",
     "solver_fallback",
     "invalid_decision",
     "degraded",
@@ -66,7 +67,8 @@ class Event:
     #: was wrong with an invalid decision (``not_finite``, ``out_of_bounds``, ``shape``…); why
     #: a target became suspect (``linger``, ``zone``)
     cause: str = ""
-    #: how a zone became known: ``attack``, ``broadcast``, ``circle``, ``silence``
+    #: how a zone became known: ``attack``, ``broadcast``, ``circle``, ``silence``,
+    #: ``degradation`` (a robot found its sensor degraded)
     source: str = ""
     #: the rung a plan fell back to (``safe`` or a simpler program)
     fallback: str = ""
@@ -177,6 +179,17 @@ class Event:
         a known zone's keep-out disc)."""
         detail = f"target {target} ({cause}) at ({x:.3f}, {y:.3f})"
         return cls(step, robot, "target_suspected", detail, cause=cause)
+
+    @classmethod
+    def degradation_detected(
+        cls, step: int, robot: int, factor: float, statistic: float, x: float, y: float
+    ) -> Event:
+        """``robot``'s measurements disagree with its league's estimate: its sensor looks
+        degraded (estimated noise factor ``factor``, CUSUM ``statistic``), found at ``(x, y)``."""
+        detail = f"noise factor {factor:.2f} (CUSUM {statistic:.1f}) at ({x:.3f}, {y:.3f})"
+        return cls(
+            step, robot, "degradation_detected", detail, kind="sensing", source="degradation"
+        )
 
     @classmethod
     def solver_fallback(

@@ -96,6 +96,7 @@ class ExtendedKalmanFilter:
         robot_positions: FloatArray,
         measurements: FloatArray,
         nis_out: list[float] | None = None,
+        noise_scale: FloatArray | None = None,
     ) -> TargetEstimate:
         """Measurement update (eqs. ``state_update``, ``cov_inv_update``); returns a new object.
 
@@ -103,10 +104,13 @@ class ExtendedKalmanFilter:
         ``[range, bearing]`` for the paper's sensor), NaN where robot ``k`` did not measure target
         ``j`` (skipped). If ``nis_out`` is given, the
         per-(robot, target) NIS of the measurements used are appended to it, robot-major.
+        ``noise_scale`` ``(K,)``: robot ``k``'s noise variance is ``noise_scale[k] · R(d̂)`` (a
+        sensor found degraded, :mod:`~resilient_tracking.belief.degradation_watch`); ``None``:
+        the nominal ``R``.
         """
         if nis_out is None:  # the estimate only: no diagnostics to compute
-            return self._linearised(est, robot_positions, measurements)[0]
-        res = self.update_detailed(est, robot_positions, measurements)
+            return self._linearised(est, robot_positions, measurements, noise_scale)[0]
+        res = self.update_detailed(est, robot_positions, measurements, noise_scale)
         nis_out.extend(res.nis[np.isfinite(res.nis)].tolist())
         return res.estimate
 
@@ -118,7 +122,11 @@ class ExtendedKalmanFilter:
         return res.estimate, res.nis
 
     def update_with_likelihood(
-        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        noise_scale: FloatArray | None = None,
     ) -> tuple[TargetEstimate, FloatArray]:
         """Like :meth:`update`, also returning per target the log-likelihood
         ``log N(z̃; 0, S)`` of its stacked measurements against the prior (0 where none), what a
@@ -128,7 +136,7 @@ class ExtendedKalmanFilter:
         ``log det S = Σ_k log det R_k + log det(I + J P_pp)`` (matrix determinant lemma), with
         ``J`` the position information of the update.
         """
-        estimate, lin = self._linearised(est, robot_positions, measurements)
+        estimate, lin = self._linearised(est, robot_positions, measurements, noise_scale)
         hjac, var, valid, innov, rinv, b = lin
         info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
         _, logdet_m = np.linalg.slogdet(_EYE2 + info @ est.cov[:, :2, :2])
@@ -141,14 +149,18 @@ class ExtendedKalmanFilter:
         return estimate, np.where(dof > 0, loglik, 0.0)
 
     def _linearised(
-        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        noise_scale: FloatArray | None = None,
     ) -> tuple[TargetEstimate, _Linearisation]:
         """The updated estimate, and what the diagnostics of :meth:`update_detailed` need: at
         the predicted positions, then (iterated EKF) at each update's result."""
-        updated, lin = self._linearised_at(est, robot_positions, measurements, None)
+        updated, lin = self._linearised_at(est, robot_positions, measurements, None, noise_scale)
         for _ in range(self.iterations - 1):
             at = updated.mean[:, :2]
-            updated, lin = self._linearised_at(est, robot_positions, measurements, at)
+            updated, lin = self._linearised_at(est, robot_positions, measurements, at, noise_scale)
         return updated, lin
 
     def _linearised_at(
@@ -157,9 +169,11 @@ class ExtendedKalmanFilter:
         robot_positions: FloatArray,
         measurements: FloatArray,
         at: FloatArray | None,
+        noise_scale: FloatArray | None = None,
     ) -> tuple[TargetEstimate, _Linearisation]:
         """The update of ``est`` with the measurements linearised at the target positions
-        ``at`` ``(N, 2)`` (``None``: at the predicted ones, the paper's EKF)."""
+        ``at`` ``(N, 2)`` (``None``: at the predicted ones, the paper's EKF), robot ``k``'s
+        noise variance scaled by ``noise_scale[k]`` (``None``: nominal)."""
         n = est.n_targets
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
@@ -178,6 +192,8 @@ class ExtendedKalmanFilter:
         seen_from, seen = robots[:, None, :], pos[None, :, :]
         # h (K, N, D), its Jacobian (K, N, D, 2), R(d̂) at the predicted distance (K, N, D)
         h, hjac, var = sensor.linearise(seen_from, seen)
+        if noise_scale is not None:  # a degraded sensor's R, scaled (docs/model.md §6.4)
+            var = var * np.asarray(noise_scale, dtype=float).reshape(k, 1, 1)
         if self.second_order:  # + ½ tr(H″_c P H″_c P) per channel c (second-order EKF)
             hess = sensor.hessian(seen_from, seen)  # (K, N, D, 2, 2)
             hp = hess @ cov[None, :, None, :2, :2]
@@ -215,10 +231,14 @@ class ExtendedKalmanFilter:
         return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
 
     def update_detailed(
-        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        noise_scale: FloatArray | None = None,
     ) -> EkfUpdate:
         """Measurement update with all diagnostics (see :class:`EkfUpdate`)."""
-        estimate, lin = self._linearised(est, robot_positions, measurements)
+        estimate, lin = self._linearised(est, robot_positions, measurements, noise_scale)
         cov, new_cov = est.cov, estimate.cov
         hjac, var, valid, innov, rinv, b = lin
 

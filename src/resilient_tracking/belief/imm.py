@@ -142,13 +142,22 @@ class InteractingMultipleModel:
         return _combined(ModeStates(c, pred_means, pred_covs))
 
     def update(
-        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        noise_scale: FloatArray | None = None,
     ) -> TargetEstimate:
-        """Mode-matched EKF updates, mode probabilities, combination (new object)."""
-        return self.update_with_likelihood(est, robot_positions, measurements)[0]
+        """Mode-matched EKF updates, mode probabilities, combination (new object); robot
+        ``k``'s noise variance scaled by ``noise_scale[k]`` (``None``: nominal)."""
+        return self.update_with_likelihood(est, robot_positions, measurements, noise_scale)[0]
 
     def update_with_likelihood(
-        self, est: TargetEstimate, robot_positions: FloatArray, measurements: FloatArray
+        self,
+        est: TargetEstimate,
+        robot_positions: FloatArray,
+        measurements: FloatArray,
+        noise_scale: FloatArray | None = None,
     ) -> tuple[TargetEstimate, FloatArray]:
         """Like :meth:`update`, also returning the ``(N, M)`` log-likelihoods ``log Λ_j``."""
         modes = self.modes_of(est)
@@ -160,7 +169,7 @@ class InteractingMultipleModel:
             )
         flat = TargetEstimate(modes.means.reshape(n * m, 4), modes.covs.reshape(n * m, 4, 4))
         updated, loglik = self._ekf.update_with_likelihood(
-            flat, robot_positions, np.repeat(z, m, axis=1)
+            flat, robot_positions, np.repeat(z, m, axis=1), noise_scale
         )
         loglik = loglik.reshape(n, m)
         with np.errstate(divide="ignore"):

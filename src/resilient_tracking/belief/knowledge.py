@@ -17,7 +17,7 @@ import numpy as np
 
 from resilient_tracking.observation import ZoneClue
 
-Source = Literal["attack", "broadcast", "circle", "silence"]
+Source = Literal["attack", "broadcast", "circle", "silence", "degradation"]
 
 #: Mahalanobis distance under which an unidentified estimate is the same zone as another.
 SAME_ZONE_MAHALANOBIS = 3.0

@@ -2,14 +2,16 @@
 
 The belief always keeps the leagues and one target estimate per league. Beyond that a policy
 may ask for zone knowledge (attack clues learned and shared within leagues; a vanilla team
-keeps none), for comm zones inferred from silent teammates (the paper's Alg. 3) and for zone
-estimates that age and move (:mod:`~resilient_tracking.belief.zone_motion`).
+keeps none), for comm zones inferred from silent teammates (the paper's Alg. 3), for zone
+estimates that age and move (:mod:`~resilient_tracking.belief.zone_motion`) and for a watch
+on silently degraded sensors.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from resilient_tracking.belief.degradation_watch import DegradationWatchSettings
 from resilient_tracking.belief.silent_robots import SilentRobotSettings
 from resilient_tracking.belief.zone_motion import ZoneMotionSettings
 
@@ -25,3 +27,6 @@ class BeliefNeeds:
     #: track identified zones' motion from successive clues with these settings (``None``:
     #: zone estimates stay where they were learned)
     zone_motion: ZoneMotionSettings | None = None
+    #: find silently degraded sensors and adapt their noise with these settings (``None``:
+    #: do not; docs/model.md §6.4)
+    degradation: DegradationWatchSettings | None = None

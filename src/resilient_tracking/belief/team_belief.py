@@ -10,7 +10,10 @@ Each tick (docs/model.md §3–4):
    (motion-mode states included, :func:`~resilient_tracking.belief.fusion.fuse_estimates`);
 4. each league's estimate is predicted to now (the prediction the policy planned with at the
    last tick, when the league is unchanged: one prediction per step) and updated with its
-   sensing members' measurements by the team's estimator (the EKF by default);
+   sensing members' measurements by the team's estimator (the EKF by default); if the policy
+   needs it, each member's measurements are first checked against that prediction for a
+   silently degraded sensor, whose noise the update then scales
+   (:mod:`resilient_tracking.belief.degradation_watch`);
 5. every league covariance is checked (symmetric positive definite) and repaired with a
    ``covariance_repaired`` event if it drifted (:mod:`resilient_tracking.belief.health`; the
    motion modes of a repaired target, if the estimator keeps any, restart at its repair);
@@ -25,6 +28,7 @@ Each tick (docs/model.md §3–4):
 
 from __future__ import annotations
 
+import inspect
 import logging
 from collections.abc import Iterable
 from dataclasses import replace
@@ -32,6 +36,7 @@ from typing import Literal
 
 import numpy as np
 
+from resilient_tracking.belief.degradation_watch import DegradationWatch
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.fusion import fuse_estimates
@@ -70,6 +75,21 @@ class TeamBelief:
         motion = self.needs.zone_motion
         #: tracks of the zones' motion from successive clues (or ``None``: zones stay put)
         self.zone_motion = None if motion is None else ZoneMotionTracker(n_robots, motion)
+        #: finds silently degraded sensors and scales their noise (or ``None``)
+        watch = self.needs.degradation
+        self.degradation_watch = None
+        if watch is not None:
+            if not self.needs.zones:
+                watch = replace(watch, learn_zone=False)
+            self.degradation_watch = DegradationWatch(n_robots, watch)
+        #: whether the estimator's update takes ``noise_scale`` (the EKF and the IMM do)
+        self._scales_noise = "noise_scale" in inspect.signature(estimator.update).parameters
+        if self.degradation_watch is not None and not self._scales_noise:
+            log.warning(
+                "the estimator %s cannot scale a robot's noise: degraded sensors are found, "
+                "their noise is not adapted",
+                type(estimator).__name__,
+            )
         self.leagues: list[list[int]] = [list(range(n_robots))]
         self.league_of = np.zeros(n_robots, dtype=int)
         self.estimates: list[TargetEstimate] = [initial]  # one per league
@@ -127,7 +147,23 @@ class TeamBelief:
                 positions, measurements = obs.positions, obs.measurements
             else:
                 positions, measurements = obs.positions[sensing], obs.measurements[sensing]
-            self.estimates[k] = self.estimator.update(self.estimates[k], positions, measurements)
+            if self.degradation_watch is None:
+                self.estimates[k] = self.estimator.update(
+                    self.estimates[k], positions, measurements
+                )
+                continue
+            prior = self.estimates[k]
+            events += self.degradation_watch.observe(
+                self, obs.step, sensing, prior, positions, measurements
+            )
+            scale = self.degradation_watch.noise_scale(sensing) if self._scales_noise else None
+            if scale is None:
+                self.estimates[k] = self.estimator.update(prior, positions, measurements)
+            else:  # an estimator that scales its noise (the EKF and the IMM do)
+                update = self.estimator.update
+                self.estimates[k] = update(  # type: ignore[call-arg]
+                    prior, positions, measurements, noise_scale=scale
+                )
         events += self._check_health(obs.step)
         self._predicted = [None] * len(self.estimates)
         if self.needs.zones:

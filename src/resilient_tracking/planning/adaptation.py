@@ -6,10 +6,12 @@ import numpy as np
 from scipy.special import erfinv
 
 
-def adaptive_weights(risky: np.ndarray, safe: np.ndarray, attacked: int, total: int) -> np.ndarray:
+def adaptive_weights(
+    risky: np.ndarray, safe: np.ndarray, attacked: float, total: int
+) -> np.ndarray:
     """``w_s = w_s,risky − (m/M)(w_s,risky − w_s,safe)`` for ``s = 1..5`` (eq. 10), from the two
     extremes as arrays ``[w1, w2, w3, w4, w5]`` (track, effort, sensing slack, comm slack,
-    clearance)."""
+    clearance); ``m`` may count a robot in part (a degraded sensor, docs/model.md §6.4)."""
     r, s = risky, safe
     frac = min(max(attacked / total, 0.0), 1.0) if total else 0.0
     return r - frac * (r - s)

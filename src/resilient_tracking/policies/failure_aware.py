@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from resilient_tracking.belief.circle_fit import CircleGates
+from resilient_tracking.belief.degradation_watch import DegradationWatchSettings
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.silent_robots import SilentRobotSettings
@@ -76,7 +77,7 @@ class FailureAwarePolicy(PlanningPolicy):
         #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
         self.last_weights = np.zeros((config.n_robots, 5))
         #: the weights of each situation, computed once (the parameters are fixed at creation)
-        self._weights: dict[tuple[bool, bool, int, int], np.ndarray] = {}
+        self._weights: dict[tuple[bool, bool, float, int], np.ndarray] = {}
         #: the last zone rows made: the zones they came from, what else they depend on, the rows
         self._last_rows: tuple[tuple[ZoneEstimate, ...], tuple[object, ...], ZoneRows] | None = None
         #: robot-steps spent near each known zone (with ``hazard_guard``)
@@ -97,12 +98,27 @@ class FailureAwarePolicy(PlanningPolicy):
     # ------------------------------------------------------------------ the tick
 
     def belief_needs(self) -> BeliefNeeds:
-        """Zone knowledge, comm zones inferred from silent teammates (Alg. 3), and with
-        ``zone_motion`` the zones' motion tracked from successive clues."""
+        """Zone knowledge, comm zones inferred from silent teammates (Alg. 3), with
+        ``zone_motion`` the zones' motion tracked from successive clues, and with
+        ``degradation_watch`` the watch on silently degraded sensors."""
         params = self.params
         fit = params.circle_fit
         motion = params.zone_motion
+        watch = params.degradation_watch
         return BeliefNeeds(
+            degradation=DegradationWatchSettings(
+                sensor=self.config.sensor,
+                design_factor=watch.design_factor,
+                threshold=watch.threshold,
+                warmup=watch.warmup,
+                nis_cap=watch.nis_cap,
+                memory=watch.memory,
+                max_factor=watch.max_factor,
+                zone_radius=watch.zone_radius,
+                zone_std=watch.zone_std,
+            )
+            if watch.enabled
+            else None,
             zones=True,
             silent_robots=SilentRobotSettings(
                 gates=CircleGates(
@@ -139,7 +155,11 @@ class FailureAwarePolicy(PlanningPolicy):
         if any(a.clue.persistence == "temporary" or a.cause == "jamming" for a in obs.attacks):
             self.cooldown_until = obs.step + self.params.cooldown_steps
         cooling = obs.step < self.cooldown_until
-        attacked = m - int(np.count_nonzero(obs.sensing_ok & obs.comm_ok))
+        working = obs.sensing_ok & obs.comm_ok
+        attacked: float = m - int(np.count_nonzero(working))
+        watch = belief.degradation_watch
+        if watch is not None:  # a degraded sensor counts as part of an attacked robot
+            attacked += round(float(watch.attacked_fraction()[working].sum()), 2)
         eps_sensing = self._sensing_risk(int(np.count_nonzero(obs.sensing_ok)), m)
         if self.quarantine is not None:
             self.quarantine.observe(obs)
@@ -178,7 +198,7 @@ class FailureAwarePolicy(PlanningPolicy):
 
     # ------------------------------------------------------------------ pieces
 
-    def _situation_weights(self, cooling: bool, alone: bool, attacked: int, m: int) -> np.ndarray:
+    def _situation_weights(self, cooling: bool, alone: bool, attacked: float, m: int) -> np.ndarray:
         """``[w1..w5]``: alone, the safe weights; a league, eq. 10 between risky and safe by
         the fraction of attacked robots; the cool-down weights while cooling (a copy)."""
         key = (cooling, alone, attacked, m)

@@ -186,6 +186,86 @@ class QuarantineParams(Strict):
     )
 
 
+class DegradationWatchParams(Strict):
+    """Finding a robot's silently degraded sensor from its own measurements and adapting to it
+    (the ``degradation_watch`` of the failure-aware policy, docs/model.md §6.4)."""
+
+    enabled: bool = Field(
+        False,
+        description=(
+            "Beyond the paper: check each robot's measurements against its league's predicted"
+            " estimate (NIS, CUSUM); a robot found degraded has its noise re-estimated and used"
+            " by the filter, counts as partly attacked in the adaptive weights (1 − 1/λ̂ of a"
+            " robot) and learns a sensing zone where it was found, shared with its league."
+            " false, the default: the paper's team."
+        ),
+    )
+    design_factor: float = Field(
+        2.0,
+        gt=1,
+        le=MAX_RATIO,
+        description=(
+            "Noise standard-deviation factor the CUSUM is tuned to: the alternative hypothesis"
+            " of its log-likelihood ratio (the noise variance times its square)."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
+    threshold: float = Field(
+        20.0,
+        gt=0,
+        le=MAX_RATIO,
+        description=(
+            "CUSUM threshold, a log-likelihood ratio: larger means fewer false alarms and later"
+            " detections."
+        ),
+    )
+    warmup: int = Field(
+        30,
+        ge=0,
+        le=MAX_STEP_COUNT,
+        description=(
+            "Steps from the first tick before the CUSUM starts: the filter first settles from"
+            " its wide initial prior."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
+    nis_cap: float = Field(
+        20.0,
+        gt=0,
+        le=MAX_RATIO,
+        description=(
+            "Cap on one measurement's normalised innovation squared in the CUSUM, so one outlier"
+            " adds a bounded amount."
+        ),
+    )
+    memory: float = Field(
+        30.0,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Steps over which a degraded sensor's noise estimate forgets (exponentially).",
+        json_schema_extra={"unit": "steps"},
+    )
+    max_factor: float = Field(
+        20.0,
+        ge=1,
+        le=MAX_RATIO,
+        description="Largest noise standard-deviation factor estimated.",
+        json_schema_extra={"unit": "ratio"},
+    )
+    zone_radius: PositiveLength = Field(
+        0.5,
+        description="Radius of the sensing zone learned where a degradation is found.",
+        json_schema_extra={"unit": "m"},
+    )
+    zone_std: float = Field(
+        0.5,
+        gt=0,
+        le=MAX_POSITION_STD,
+        description="Spread of the centre of the zone learned where a degradation is found.",
+        json_schema_extra={"unit": "m"},
+    )
+
+
 class ZoneMotionParams(Strict):
     """Zone estimates that age and move (the ``zone_motion`` of the failure-aware policy,
     docs/model.md §6.3): a nearly-constant-velocity Kalman filter per identified zone, fed with
@@ -394,5 +474,12 @@ class FailureAwareParams(Strict):
             "Beyond the paper: zone estimates that move with a velocity estimated from"
             " successive clues and grow uncertain with time since the last one"
             " (docs/model.md §6.3); off by default."
+        ),
+    )
+    degradation_watch: DegradationWatchParams = Field(
+        DegradationWatchParams(),
+        description=(
+            "Beyond the paper: find silently degraded sensors and adapt to them (enabled: false,"
+            " the default, is the paper's team; docs/model.md §6.4)."
         ),
     )

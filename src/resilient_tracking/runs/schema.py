@@ -179,7 +179,12 @@ EVENTS = Table(
             + " rows are truth's, never seen by the team",
         ),
         _c("detail", "str", "", "one line for people (never parsed)"),
-        _c("kind", "str", "", "sensing or comm (attack, recover, zone_*), else empty"),
+        _c(
+            "kind",
+            "str",
+            "",
+            "sensing or comm (attack, recover, zone_*, degradation_detected), else empty",
+        ),
         _c("zone", "int64", "", "id of the zone that attacked or was learned, −1 when none"),
         _c("persistence", "str", "", "temporary, permanent (unknown: zone_learned), else empty"),
         _c(
@@ -192,7 +197,13 @@ EVENTS = Table(
             " (not_finite, out_of_bounds, shape, type, modes); target_suspected: linger or"
             " zone; else empty",
         ),
-        _c("source", "str", "", "zone_*: attack, broadcast, circle or silence, else empty"),
+        _c(
+            "source",
+            "str",
+            "",
+            "zone_*: attack, broadcast, circle, silence or degradation;"
+            " degradation_detected: degradation; else empty",
+        ),
         _c("fallback", "str", "", "solver_fallback: the rung taken (safe, ...), else empty"),
         _c(
             "action",
@@ -252,7 +263,7 @@ KNOWLEDGE = Table(
         _c("robot", "int64", "", "robot that learned it"),
         _c("zone", "int64", "", "zone id when learned from an attack clue, −1 when inferred"),
         _c("kind", "str", "", "sensing or comm"),
-        _c("source", "str", "", "attack, broadcast, circle or silence"),
+        _c("source", "str", "", "attack, broadcast, circle, silence or degradation"),
         _c("x", "float64", "m", "estimated centre"),
         _c("y", "float64", "m", "estimated centre"),
         _c("sigma_xx", "float64", "m²", "covariance of the centre"),
