@@ -224,3 +224,15 @@ def test_beyond_figures_are_bands_and_snapshots_of_the_shipped_scenarios_only(tm
     assert set(bands) == {f"bands-{name}.png" for name in BEYOND}
     teams = bands["bands-comm-spread.png"].args[0]
     assert set(teams) == {"comm-spread-vanilla", "comm-spread-paper", "comm-spread-extended"}
+
+
+def test_feature_counts_name_each_shipped_scenarios_feature():
+    from resilient_tracking.experiments.beyond_features import feature_counts
+    from resilient_tracking.scenarios import load
+
+    counts = feature_counts(load(name) for name in BEYOND)
+    assert counts["scenarios"] == 6 and counts["zones"] == 6
+    assert counts["moving (waypoints)"] == counts["moving (circle)"] == 1
+    assert counts["degrading sensing (silent)"] == counts["degrading comm (announced)"] == 1
+    assert counts["spreading"] == counts["multimodal"] == 1
+    assert counts["scenarios with a radio range"] == 1

@@ -4,6 +4,7 @@
     python tools/generate_suite.py --check    # exit 1 if the stored suite differs
     python tools/generate_suite.py --beyond   # the beyond benchmark's suite-beyond-2024.json
     python tools/generate_suite.py --beyond --check
+    python tools/generate_suite.py --beyond --count   # the stored beyond suite's features
 
 The generator runs the vanilla team once per scenario to check that it meets every zone, so a
 suite depends on the planner as well as on the seed. The stored file pins it: the benchmark
@@ -18,11 +19,13 @@ import json
 import logging
 import sys
 
+from resilient_tracking.experiments.beyond_features import feature_counts
 from resilient_tracking.experiments.catalog import SUITE_SIZE
 from resilient_tracking.experiments.generator import (
     BEYOND_SUITE_PATH,
     SUITE_PATH,
     SUITE_SEED,
+    stored_beyond_suite,
     suite,
 )
 
@@ -33,7 +36,14 @@ def main() -> int:
     parser.add_argument(
         "--beyond", action="store_true", help="the beyond benchmark's suite (zone features)"
     )
+    parser.add_argument(
+        "--count", action="store_true", help="print the stored beyond suite's zone features"
+    )
     args = parser.parse_args()
+    if args.count:
+        for feature, n in sorted(feature_counts(stored_beyond_suite()).items()):
+            print(f"{feature}: {n}")
+        return 0
     logging.basicConfig(level=logging.INFO)
     path = BEYOND_SUITE_PATH if args.beyond else SUITE_PATH
     drawn = suite(SUITE_SEED, SUITE_SIZE, beyond=args.beyond)

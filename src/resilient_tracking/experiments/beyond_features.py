@@ -33,11 +33,13 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import Counter
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
-from resilient_tracking.scenario import TargetSpec
+from resilient_tracking.scenario import Scenario, TargetSpec
 from resilient_tracking.world.targets import TargetTruth
 
 log = logging.getLogger(__name__)
@@ -212,3 +214,23 @@ def make_beyond(
         zone = data["zones"][int(rng.integers(len(data["zones"])))]
         words.append(f"{zone['name']} {_degrade(zone, rng)}")
     data["description"] += f" Beyond the paper: {'; '.join(words)}."
+
+
+def feature_counts(scenarios: Iterable[Scenario]) -> Counter[str]:
+    """How many zones of ``scenarios`` have each feature beyond the paper (a zone counts once
+    per feature), and how many scenarios have a radio range (``comm_range``)."""
+    counts: Counter[str] = Counter()
+    for scenario in scenarios:
+        counts["scenarios"] += 1
+        counts["zones"] += len(scenario.zones)
+        counts["scenarios with a radio range"] += scenario.comm_range is not None
+        for zone in scenario.zones:
+            if zone.motion is not None:
+                counts[f"moving ({zone.motion.type})"] += 1
+            if len(zone.kinds) == 2:
+                counts["multimodal"] += 1
+            if zone.effect.type == "degrade":
+                how = "announced" if zone.effect.announced else "silent"
+                counts[f"degrading {zone.kinds[0]} ({how})"] += 1
+            counts["spreading"] += getattr(zone, "spread", None) is not None
+    return counts
