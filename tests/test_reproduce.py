@@ -46,7 +46,8 @@ def tables_of(out, task):
 def test_catalog_has_every_experiment_of_spec_section_6_with_its_seed_counts():
     full = catalog()
     paper = {*SIX, "bench-risk", "bench-scale", "bench-complex"}
-    assert set(full) == {*paper, *(f"{n}-route" for n in paper), "generalization", "adversarial"}
+    beyond_paper = {"generalization", "adversarial", "beyond"}
+    assert set(full) == {*paper, *(f"{n}-route" for n in paper), *beyond_paper}
     # the paper's experiments on its one-step program, then the same arms and seeds on the route
     for name in paper:
         route = full[f"{name}-route"]
@@ -338,6 +339,16 @@ def test_quick_reproduction_reports_the_adversarial_targets(quick_claims):
     found = [c for (n, _), c in quick_claims.items() if n == "adversarial"]
     assert len(found) == 4 * 4 + 2  # four comparisons per scenario, losses on the two lures
     assert all("95 % CI" in c.evidence or "per run" in c.evidence for c in found)
+
+
+@pytest.mark.slow
+def test_quick_reproduction_reports_the_beyond_targets(quick_claims):
+    """The beyond experiment runs in `all` on its six shipped scenarios and a few suite
+    scenarios, and its targets are decided (reported, not asserted: two seeds, four scenarios)."""
+    found = [c for (n, _), c in quick_claims.items() if n == "beyond"]
+    assert len(found) == 6 * 4 + 2  # four comparisons per shipped scenario, two on the suite
+    assert all("95 % CI" in c.evidence for c in found)
+    assert sum(c.statement.startswith("beyond suite:") for c in found) == 2
 
 
 @pytest.mark.slow

@@ -1,12 +1,15 @@
-"""Write the generalization benchmark's fixed suite (docs/generalization.md) to package data.
+"""Write a benchmark's fixed suite (docs/generalization.md, docs/beyond.md) to package data.
 
     python tools/generate_suite.py            # regenerate src/.../experiments/suite-2024.json
     python tools/generate_suite.py --check    # exit 1 if the stored suite differs
+    python tools/generate_suite.py --beyond   # the beyond benchmark's suite-beyond-2024.json
+    python tools/generate_suite.py --beyond --check
+    python tools/generate_suite.py --beyond --count   # the stored beyond suite's features
 
-The generator runs the vanilla team once per scenario to check that it meets every zone, so the
+The generator runs the vanilla team once per scenario to check that it meets every zone, so a
 suite depends on the planner as well as on the seed. The stored file pins it: the benchmark
-runs the same scenarios after any change, and ``tests/test_generalization.py`` says when the
-generator's output has drifted from it.
+runs the same scenarios after any change, and ``tests/test_generalization.py`` and
+``tests/test_beyond.py`` say when the generator's output has drifted from it.
 """
 
 from __future__ import annotations
@@ -16,23 +19,43 @@ import json
 import logging
 import sys
 
+from resilient_tracking.experiments.beyond_features import feature_counts
 from resilient_tracking.experiments.catalog import SUITE_SIZE
-from resilient_tracking.experiments.generator import SUITE_PATH, SUITE_SEED, suite
+from resilient_tracking.experiments.generator import (
+    BEYOND_SUITE_PATH,
+    SUITE_PATH,
+    SUITE_SEED,
+    stored_beyond_suite,
+    suite,
+)
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="compare, do not write")
+    parser.add_argument(
+        "--beyond", action="store_true", help="the beyond benchmark's suite (zone features)"
+    )
+    parser.add_argument(
+        "--count", action="store_true", help="print the stored beyond suite's zone features"
+    )
     args = parser.parse_args()
+    if args.count:
+        for feature, n in sorted(feature_counts(stored_beyond_suite()).items()):
+            print(f"{feature}: {n}")
+        return 0
     logging.basicConfig(level=logging.INFO)
-    data = [s.model_dump(mode="json") for s in suite(SUITE_SEED, SUITE_SIZE)]
-    text = json.dumps({"seed": SUITE_SEED, "scenarios": data}, indent=1) + "\n"
+    path = BEYOND_SUITE_PATH if args.beyond else SUITE_PATH
+    drawn = suite(SUITE_SEED, SUITE_SIZE, beyond=args.beyond)
+    data = [s.model_dump(mode="json") for s in drawn]
+    head = {"seed": SUITE_SEED, **({"beyond": True} if args.beyond else {})}
+    text = json.dumps({**head, "scenarios": data}, indent=1) + "\n"
     if args.check:
-        same = SUITE_PATH.read_text(encoding="utf-8") == text
-        print("stored suite is current" if same else f"{SUITE_PATH} differs from the generator")
+        same = path.read_text(encoding="utf-8") == text
+        print("stored suite is current" if same else f"{path} differs from the generator")
         return 0 if same else 1
-    SUITE_PATH.write_text(text, encoding="utf-8")
-    print(f"wrote {len(data)} scenarios to {SUITE_PATH}")
+    path.write_text(text, encoding="utf-8")
+    print(f"wrote {len(data)} scenarios to {path}")
     return 0
 
 

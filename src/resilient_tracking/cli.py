@@ -406,7 +406,12 @@ def cmd_generate(args: argparse.Namespace) -> int:
     files (the benchmark's stored suite by default); never replaces a file."""
     import yaml
 
-    from resilient_tracking.experiments.generator import SUITE_SEED, drawn, stored_suite
+    from resilient_tracking.experiments.generator import (
+        SUITE_SEED,
+        drawn,
+        stored_beyond_suite,
+        stored_suite,
+    )
     from resilient_tracking.runs.folders import write_text_atomic
 
     if _out_of_range("-n", args.n, 1, MAX_SEEDS):
@@ -426,9 +431,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
         print(f"error: --out: {shown(taken[0])} exists (nothing is replaced)", file=sys.stderr)
         return 1
     seed = SUITE_SEED if args.seed is None else args.seed
-    stored = stored_suite(args.n) if seed == SUITE_SEED and not args.adversarial else []
-    scenarios = stored if len(stored) == args.n else drawn(seed, args.n, args.adversarial)
+    stored = []
+    if seed == SUITE_SEED and not args.adversarial:
+        stored = stored_beyond_suite(args.n) if args.beyond else stored_suite(args.n)
+    scenarios = (
+        stored if len(stored) == args.n else drawn(seed, args.n, args.adversarial, args.beyond)
+    )
     how = f"--seed {seed}" + (" --adversarial" if args.adversarial else "")
+    how += " --beyond" if args.beyond else ""
     out.mkdir(parents=True, exist_ok=True)
     with tqdm(total=args.n, desc="generate", unit="scenario", disable=args.quiet) as bar:
         for path, scenario in zip(names, scenarios, strict=True):
@@ -744,6 +754,15 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="wrap some targets of each scenario in evasive or lure motions (the same "
         "scenarios otherwise)",
+    )
+    p.add_argument(
+        "--beyond",
+        action="store_true",
+        help="give the zones of each scenario the world's features beyond the paper, each "
+        "drawn per zone: moving (an orbit, a drift or a sweep around where the team meets it), "
+        "multimodal (kind [sensing, comm]), degrading (announced or silent) or, a permanent "
+        "comm zone, spreading (with a radio range); at least one per scenario; the same "
+        "scenarios otherwise (docs/beyond.md)",
     )
     p.add_argument("--out", default="generated", help="folder (default: generated)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")

@@ -23,10 +23,15 @@ from typing import Any
 import yaml
 
 from resilient_tracking import scenarios
-from resilient_tracking.experiments.generator import stored_suite
+from resilient_tracking.experiments.generator import stored_beyond_suite, stored_suite
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, PAPER_METHOD, apply_overrides
+from resilient_tracking.scenario.overrides import (
+    ADVERSARIAL_TEAM,
+    BEYOND_TEAM,
+    PAPER_METHOD,
+    apply_overrides,
+)
 
 
 def default_scenario_dir() -> Path:
@@ -53,6 +58,8 @@ class Variant:
     n_targets: int | None = None
     #: free-form attributes used to group runs in figures and claims (risk level, team size)
     tags: Mapping[str, Any] = field(default_factory=dict)
+    #: at most this many of the experiment's seeds (its first ones) for this arm; None: all
+    max_seeds: int | None = None
 
     def changes(self, data: Mapping[str, Any]) -> dict[str, Any]:
         """Everything this arm changes in the scenario mapping ``data``, by dotted path: the
@@ -261,6 +268,67 @@ def adversarial_cases(
     return out
 
 
+#: The shipped scenarios of the world's features beyond the paper (docs/model.md §2).
+BEYOND = (
+    "moving-sensing",
+    "moving-comm-perm",
+    "sensing-degrade",
+    "comm-degrade",
+    "comm-spread",
+    "multimodal",
+)
+#: Seeds of each stored beyond-suite scenario in the ``beyond`` experiment (its first ones).
+BEYOND_SUITE_SEEDS = 2
+
+
+def _three_teams(
+    name: str, extended: Mapping[str, Any], part: str, max_seeds: int | None = None
+) -> tuple[Variant, ...]:
+    """Vanilla, the paper's failure-aware team and the failure-aware team with ``extended``,
+    labelled ``<name>-<team>`` and tagged with the scenario, the team and ``part``."""
+    arms: tuple[tuple[str, str, Mapping[str, Any]], ...] = (
+        ("vanilla", "vanilla", {}),
+        ("paper", "failure_aware", {}),
+        ("extended", "failure_aware", extended),
+    )
+    return tuple(
+        Variant(
+            f"{name}-{team}",
+            policy,
+            dict(overrides),
+            tags={"scenario": name, "team": team, "part": part},
+            max_seeds=max_seeds,
+        )
+        for team, policy, overrides in arms
+    )
+
+
+def beyond_cases(
+    names: Iterable[str] = BEYOND,
+    suite_size: int = SUITE_SIZE,
+    max_pairs: int | None = None,
+    suite_seeds: int = BEYOND_SUITE_SEEDS,
+    scenario_dir: Path | None = None,
+) -> list[tuple[Scenario, tuple[Variant, ...]]]:
+    """The shipped scenarios of the features beyond the paper (tagged ``part: shipped``), then
+    the first ``suite_size`` scenarios of the stored beyond suite (of those with at most
+    ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
+    ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
+    the extended team (:data:`BEYOND_TEAM`)."""
+    folder = scenario_dir or default_scenario_dir()
+    out = []
+    for name in names:
+        path = folder / f"{name}.yaml"
+        scenario = Scenario.parse(yaml.safe_load(path.read_text()), path.name)
+        out.append((scenario, _three_teams(name, BEYOND_TEAM, "shipped")))
+    generated = stored_beyond_suite()
+    if max_pairs is not None:
+        generated = [s for s in generated if len(s.robots) * len(s.targets) <= max_pairs]
+    for scenario in generated[:suite_size]:
+        out.append((scenario, _three_teams(scenario.name, BEYOND_TEAM, "suite", suite_seeds)))
+    return out
+
+
 SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm")
 
 #: Suffix of the experiments that repeat the paper's on the route program.
@@ -355,6 +423,24 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             ),
             generated=adversarial_cases,
         ),
+        Experiment(
+            "beyond",
+            "",
+            variants=(),
+            seeds=2 if quick else 10,
+            kind="beyond",
+            description=(
+                "the world's features beyond the paper (docs/beyond.md): vanilla, the paper's "
+                "failure-aware team and the extended team (BEYOND_TEAM) on "
+                + ", ".join(f"`{n}`" for n in BEYOND)
+                + f", and on {QUICK_SUITE if quick else SUITE_SIZE} scenarios of the stored "
+                f"beyond suite{' with small teams' if quick else ''} "
+                f"({1 if quick else BEYOND_SUITE_SEEDS} seed(s) each)"
+            ),
+            generated=partial(beyond_cases, BEYOND, QUICK_SUITE, QUICK_MAX_PAIRS, 1)
+            if quick
+            else beyond_cases,
+        ),
     ]
     return {e.name: e for e in experiments}
 
@@ -391,5 +477,5 @@ def tasks(
     return [
         Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
         for variant, scenario in arms
-        for seed in experiment.seed_list(seeds)
+        for seed in experiment.seed_list(seeds)[: variant.max_seeds]
     ]

@@ -12,7 +12,12 @@ import pandas as pd
 
 from resilient_tracking.experiments.catalog import Experiment
 from resilient_tracking.experiments.comparison import confidence_interval
-from resilient_tracking.experiments.generalization import straggler_share, win_rate
+from resilient_tracking.experiments.generalization import (
+    Proportion,
+    straggler_share,
+    wilson,
+    win_rate,
+)
 
 
 @dataclass(frozen=True)
@@ -192,6 +197,28 @@ def _paired(s: pd.DataFrame, metric: str, better: str, worse: str) -> tuple[floa
     )
 
 
+#: The two teams the extended team is compared with, and how claims name them.
+OTHER_TEAMS = (("paper", "the paper's team"), ("vanilla", "vanilla"))
+
+
+def _extended_lower(exp: Experiment, name: str, rows: pd.DataFrame) -> list[Claim]:
+    """Per scenario: the extended team has a lower mean trace and MSE than each other team,
+    with the 95 % interval of the per-seed differences."""
+    out = []
+    for other, who in OTHER_TEAMS:
+        for metric in ("trace", "mse"):
+            a, b, evidence = _paired(rows, metric, "extended", other)
+            out.append(
+                Claim(
+                    exp.name,
+                    f"{name}: the extended team has a lower mean {metric} than {who}",
+                    a < b,
+                    evidence,
+                )
+            )
+    return out
+
+
 def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     """Targets of the ``adversarial`` experiment, per scenario: the extended team has a lower
     mean trace and MSE than the paper's team and than vanilla; with lures, its permanent losses
@@ -199,17 +226,7 @@ def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     :data:`LURE_TRACE_FACTOR` times its."""
     out = []
     for name, rows in s.groupby("tag_scenario", sort=False):
-        for other, who in (("paper", "the paper's team"), ("vanilla", "vanilla")):
-            for metric in ("trace", "mse"):
-                a, b, evidence = _paired(rows, metric, "extended", other)
-                out.append(
-                    Claim(
-                        exp.name,
-                        f"{name}: the extended team has a lower mean {metric} than {who}",
-                        a < b,
-                        evidence,
-                    )
-                )
+        out += _extended_lower(exp, str(name), rows)
         if str(name).startswith("lure"):
             losses = rows.losses_known_permanent + rows.losses_unknown_permanent
             ext = float(losses[rows.tag_team == "extended"].mean())
@@ -229,6 +246,56 @@ def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     return out
 
 
+#: The targets set for the stored beyond suite (docs/beyond.md): shares of its scenarios in
+#: which the extended team has the lower mean trace than the paper's team and than vanilla.
+BEYOND_SUITE_TARGETS = {"paper": 0.85, "vanilla": 0.9}
+
+
+def suite_wins(suite: pd.DataFrame, other: str) -> tuple[Proportion, str]:
+    """Scenarios of a suite in which the extended team's mean trace over its seeds is below
+    ``other``'s, with the Wilson interval, and as evidence also the ties and the 95 % interval
+    of the per-scenario differences."""
+    means = suite.pivot_table(index="tag_scenario", columns="tag_team", values="trace")
+    if "extended" not in means or other not in means:
+        return wilson(0, 0), "no paired runs"
+    pair = means[["extended", other]].dropna()
+    diff = (pair["extended"] - pair[other]).to_numpy()
+    wins = wilson(int((diff < 0).sum()), len(diff))
+    if not len(diff):
+        return wins, "no paired runs"
+    low, high = confidence_interval(diff)
+    return wins, (
+        f"{wins}; equal in {int((diff == 0).sum())}; mean difference {diff.mean():.3g}, "
+        f"95 % CI [{low:.3g}, {high:.3g}]"
+    )
+
+
+def beyond_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
+    """Targets of the ``beyond`` experiment: per shipped scenario (``tag_part`` ``shipped``),
+    the extended team has a lower mean trace and MSE than the paper's team and than vanilla;
+    on the stored beyond suite (``suite``) it has the lower mean trace in at least
+    :data:`BEYOND_SUITE_TARGETS` of the scenarios."""
+    part = s["tag_part"] if "tag_part" in s else pd.Series("shipped", index=s.index)
+    out = []
+    for name, rows in s[part == "shipped"].groupby("tag_scenario", sort=False):
+        out += _extended_lower(exp, str(name), rows)
+    suite = s[part == "suite"]
+    if len(suite):
+        for other, who in OTHER_TEAMS:
+            wins, evidence = suite_wins(suite, other)
+            target = BEYOND_SUITE_TARGETS[other]
+            out.append(
+                Claim(
+                    exp.name,
+                    f"beyond suite: the extended team has a lower mean trace than {who} in "
+                    f"at least {target:.0%} of the scenarios",
+                    wins.n > 0 and wins.rate >= target,
+                    evidence,
+                )
+            )
+    return out
+
+
 CHECKS = {
     "pair": adaptive_beats_vanilla,
     "risk": risky_fails_more,
@@ -236,6 +303,7 @@ CHECKS = {
     "complex": only_conservative_survives,
     "generalization": generalization_targets,
     "adversarial": adversarial_targets,
+    "beyond": beyond_targets,
 }
 
 

@@ -37,6 +37,12 @@ lingering 3–8 s, half of them again every 10–20 s), the lanes staying their 
 draws come from their own stream, ``generator_adversarial``, so an adversarial scenario is the
 plain one of the same seed and index with its targets wrapped, and the plain suite is unchanged.
 
+**Beyond the paper** (``beyond=True``, ``rtrack generate --beyond``): each scenario is drawn as
+above, then its zones draw the world's features beyond the paper (moving, degrading, spreading,
+multimodal zones: :mod:`~resilient_tracking.experiments.beyond_features`) from their own
+stream, ``generator_beyond``; the plain suite is unchanged. The ``beyond`` benchmark's suite is
+stored too (:data:`BEYOND_SUITE_PATH`, :func:`stored_beyond_suite`).
+
 All randomness comes from the ``generator`` stream of :mod:`resilient_tracking.rng`, drawn in
 order, so a suite is a function of its seed (and of the planner, through the contact check)
 and ``suite(seed, n)`` is the first ``n`` scenarios of any longer suite of the same seed. The
@@ -54,6 +60,7 @@ from typing import Any
 
 import numpy as np
 
+from resilient_tracking.experiments.beyond_features import make_beyond
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import Scenario, TargetSpec, parse_scenario
 from resilient_tracking.sim.episode import run_episode
@@ -65,6 +72,8 @@ log = logging.getLogger(__name__)
 #: Seed of the fixed suite the ``generalization`` experiment runs, and where it is stored.
 SUITE_SEED = 2024
 SUITE_PATH = Path(__file__).with_name(f"suite-{SUITE_SEED}.json")
+#: Where the ``beyond`` benchmark's suite (drawn from :data:`SUITE_SEED` with ``beyond``) is.
+BEYOND_SUITE_PATH = Path(__file__).with_name(f"suite-beyond-{SUITE_SEED}.json")
 DT = 0.1
 STEPS = 300
 WORKSPACE = {"xmin": -5.0, "xmax": 5.0, "ymin": -4.0, "ymax": 4.0}
@@ -308,10 +317,14 @@ def make_adversarial(data: dict[str, Any], rng: np.random.Generator) -> None:
 
 
 def generate(
-    rng: np.random.Generator, name: str, adversarial: np.random.Generator | None = None
+    rng: np.random.Generator,
+    name: str,
+    adversarial: np.random.Generator | None = None,
+    beyond: np.random.Generator | None = None,
 ) -> Scenario:
     """One scenario of the family, drawn from ``rng``; with ``adversarial``, some of its
-    targets then evade or lure, drawn from that generator (module docstring)."""
+    targets then evade or lure, and with ``beyond`` its zones draw the features beyond the
+    paper, each drawn from that generator (module docstring)."""
     n_robots = int(rng.integers(3, 9))
     n_targets = int(rng.integers(3, 9))
     targets = _targets(n_targets, rng)
@@ -340,28 +353,44 @@ def generate(
     data["zones"] = zones
     if adversarial is not None:
         make_adversarial(data, adversarial)
+    if beyond is not None:
+        make_beyond(data, robot_paths, beyond, MEET_EXPOSURE, DT)
     return parse_scenario(data, name)
 
 
-def drawn(seed: int = SUITE_SEED, n: int = 60, adversarial: bool = False) -> Iterator[Scenario]:
+def drawn(
+    seed: int = SUITE_SEED, n: int = 60, adversarial: bool = False, beyond: bool = False
+) -> Iterator[Scenario]:
     """The first ``n`` scenarios drawn from ``seed``, one at a time, named ``g00``, ``g01``…;
-    with ``adversarial``, with evading and luring targets (module docstring)."""
+    with ``adversarial``, with evading and luring targets, with ``beyond``, with the zone
+    features beyond the paper (module docstring)."""
     rng = stream(seed, "generator")
     wrapping = stream(seed, "generator_adversarial") if adversarial else None
+    features = stream(seed, "generator_beyond") if beyond else None
     for i in range(n):
-        scenario = generate(rng, f"g{i:02d}", wrapping)
+        scenario = generate(rng, f"g{i:02d}", wrapping, features)
         log.info("generated %s: %s", scenario.name, scenario.description)
         yield scenario
 
 
-def suite(seed: int = SUITE_SEED, n: int = 60, adversarial: bool = False) -> list[Scenario]:
+def suite(
+    seed: int = SUITE_SEED, n: int = 60, adversarial: bool = False, beyond: bool = False
+) -> list[Scenario]:
     """The first ``n`` scenarios drawn from ``seed``, named ``g00``, ``g01``… (with evading and
-    luring targets if ``adversarial``)."""
-    return list(drawn(seed, n, adversarial))
+    luring targets if ``adversarial``, with the zone features beyond the paper if ``beyond``)."""
+    return list(drawn(seed, n, adversarial, beyond))
 
 
 def stored_suite(n: int | None = None) -> list[Scenario]:
     """The first ``n`` (default all) scenarios of the fixed suite, as written to
     :data:`SUITE_PATH` by ``tools/generate_suite.py`` from ``suite(SUITE_SEED)``."""
     data = json.loads(SUITE_PATH.read_text(encoding="utf-8"))
+    return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]
+
+
+def stored_beyond_suite(n: int | None = None) -> list[Scenario]:
+    """The first ``n`` (default all) scenarios of the ``beyond`` benchmark's suite, as written
+    to :data:`BEYOND_SUITE_PATH` by ``tools/generate_suite.py --beyond`` from
+    ``suite(SUITE_SEED, beyond=True)``."""
+    data = json.loads(BEYOND_SUITE_PATH.read_text(encoding="utf-8"))
     return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]

@@ -64,6 +64,30 @@ def variant_table(summary: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
+def beyond_tables(summary: pd.DataFrame) -> str:
+    """The ``beyond`` experiment's tables: its shipped scenarios' arms, then the stored suite's
+    three teams over all its scenarios."""
+    part = summary["tag_part"] if "tag_part" in summary else pd.Series("shipped", summary.index)
+    parts = [variant_table(summary[part == "shipped"])]
+    suite = summary[part == "suite"]
+    if len(suite):
+        teams = suite.assign(variant="suite, " + suite["tag_team"].astype(str))
+        n = suite["tag_scenario"].nunique()
+        parts.append(
+            f"The stored beyond suite ({n} scenarios), per team:\n\n" + variant_table(teams)
+        )
+    return "\n\n".join(parts)
+
+
+def _tables(exp: Experiment, summary: pd.DataFrame) -> str:
+    if exp.kind == "generalization":
+        return generalization.section(summary)
+    return beyond_tables(summary) if exp.kind == "beyond" else variant_table(summary)
+
+
+#: Kinds of experiment that are not the paper's: their targets are counted apart.
+BEYOND_PAPER = ("generalization", "adversarial", "beyond")
+
 #: An experiment's figures still to draw: (figures folder, inputs digest, figures).
 Pending = tuple[Path, str, list[FigureJob]]
 
@@ -79,7 +103,7 @@ def experiment_section(
     header = f"## {exp.name}\n\n{exp.description}." + (
         " Not one of the paper's experiments: its targets are counted apart from the paper's "
         "claims."
-        if generated or exp.kind == "adversarial"
+        if generated or exp.kind in BEYOND_PAPER
         else f" Shipped scenario `{exp.scenario}`."
     )
     if not done:
@@ -107,8 +131,8 @@ def experiment_section(
     parts = [
         header,
         f"{len(done)} of {len(tasks)} runs finished; per-run rows in `{exp.name}/summary.csv`.",
-        generalization.section(summary) if generated else variant_table(summary),
-        f"**{'Targets' if generated or exp.kind == 'adversarial' else 'Claims'}**"
+        _tables(exp, summary),
+        f"**{'Targets' if generated or exp.kind in BEYOND_PAPER else 'Claims'}**"
         + mark
         + "\n\n"
         + "\n".join(
@@ -164,11 +188,12 @@ GROUPS = (
     ("route", "claims hold with the route program (the default planner)"),
     ("generalization", "generalization-benchmark targets hold (not claims of the paper)"),
     ("adversarial", "adversarial-target targets hold (not claims of the paper)"),
+    ("beyond", "beyond-the-paper targets hold (not claims of the paper)"),
 )
 
 
 def _group(exp: Experiment) -> str:
-    if exp.kind in ("generalization", "adversarial"):
+    if exp.kind in BEYOND_PAPER:
         return exp.kind
     return exp.program or "one_step"
 

@@ -27,7 +27,7 @@ from typing import Any
 import pandas as pd
 
 from resilient_tracking import __version__
-from resilient_tracking.experiments.catalog import RISK_LEVELS, Experiment, Task
+from resilient_tracking.experiments.catalog import BEYOND, RISK_LEVELS, Experiment, Task
 from resilient_tracking.experiments.sweep import run_dir
 from resilient_tracking.runs.folders import write_text_atomic
 from resilient_tracking.runs.reading import RunData
@@ -62,6 +62,11 @@ class FigureJob:
         return self.draw(*self.args, self.path, **dict(self.kwargs))
 
 
+def _scenario_of(label: str) -> str:
+    """The scenario of a three-team arm's label, ``<scenario>-<team>``."""
+    return label.rsplit("-", 1)[0]
+
+
 def figure_jobs(
     exp: Experiment, runs: dict[str, list[RunData]], summary: pd.DataFrame, out: Path
 ) -> list[FigureJob]:
@@ -88,6 +93,9 @@ def figure_jobs(
             )
         )
         return jobs
+    if exp.kind == "beyond":  # the shipped scenarios' runs only; the suite's are many
+        first = {k: v for k, v in first.items() if _scenario_of(k) in BEYOND}
+        runs = {k: v for k, v in runs.items() if _scenario_of(k) in BEYOND}
     for label, run in first.items():
         jobs.append(
             FigureJob(
@@ -108,9 +116,9 @@ def figure_jobs(
                 (("metrics", metrics), ("title", exp.name)),
             )
         )
-    elif exp.kind == "adversarial":  # per scenario, its three teams (labels "<scenario>-<team>")
-        for name in dict.fromkeys(label.rsplit("-", 1)[0] for label in runs):
-            groups = {k: v for k, v in runs.items() if k.rsplit("-", 1)[0] == name}
+    elif exp.kind in ("adversarial", "beyond"):  # per scenario, its three teams
+        for name in dict.fromkeys(_scenario_of(label) for label in runs):
+            groups = {k: v for k, v in runs.items() if _scenario_of(k) == name}
             jobs.append(
                 FigureJob(
                     f"{name}: vanilla, the paper's team and the extended team, "

@@ -14,7 +14,14 @@ from typing import Any
 from resilient_tracking.scenario.model import Scenario
 from resilient_tracking.scenario.paths import set_path, set_paths
 
-__all__ = ["ADVERSARIAL_TEAM", "PAPER_METHOD", "apply_overrides", "overridden", "set_path"]
+__all__ = [
+    "ADVERSARIAL_TEAM",
+    "BEYOND_TEAM",
+    "PAPER_METHOD",
+    "apply_overrides",
+    "overridden",
+    "set_path",
+]
 
 #: The paper's method as written, by dotted path: its one-step program (eq. 9) and its
 #: constraint set (eqs. 7c, 7d; none of the failure-aware policy's hazard guard), with the
@@ -31,6 +38,13 @@ PAPER_METHOD: dict[str, Any] = {
 #: the team is the paper's.
 ADVERSARIAL_TEAM: dict[str, Any] = {
     "estimator.type": "imm",
+}
+
+#: The failure-aware team extended for the world's features beyond the paper (docs/beyond.md),
+#: by dotted path: every option of the failure-aware policy for them, in one place. Without
+#: these settings the team is the paper's.
+BEYOND_TEAM: dict[str, Any] = {
+    "policy.failure_aware.quarantine": True,
 }
 
 

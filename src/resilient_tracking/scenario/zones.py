@@ -206,7 +206,8 @@ class SensingZone(ZoneBase):
     @model_validator(mode="before")
     @classmethod
     def _no_spread(cls, data: object) -> object:
-        if isinstance(data, dict) and "spread" in data:
+        # a multimodal zone's dump carries ``spread: null`` (its comm side's field): no spread
+        if isinstance(data, dict) and data.get("spread") is not None:
             raise ValueError("spread: only a permanent comm zone's compromise spreads")
         return data
 
