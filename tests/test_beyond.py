@@ -157,7 +157,9 @@ def test_beyond_experiment_runs_three_teams_on_the_shipped_scenarios_and_the_sui
         assert teams["vanilla"].policy == "vanilla" and not teams["paper"].overrides
         assert teams["extended"].overrides == BEYOND_TEAM
         arm = next(t for t in every if t.variant == teams["extended"])
-        assert arm.scenario.policy.params_for("failure_aware").quarantine is True
+        params = arm.scenario.policy.params_for("failure_aware")
+        assert params.quarantine is True
+        assert params.degradation_watch.enabled and params.zone_motion.enabled
         paper = next(t for t in every if t.variant == teams["paper"])
         assert paper.scenario.policy.params_for("failure_aware").quarantine is False
     seeds = Counter(t.variant.tags["part"] for t in every)

@@ -45,6 +45,8 @@ ADVERSARIAL_TEAM: dict[str, Any] = {
 #: these settings the team is the paper's.
 BEYOND_TEAM: dict[str, Any] = {
     "policy.failure_aware.quarantine": True,
+    "policy.failure_aware.degradation_watch.enabled": True,
+    "policy.failure_aware.zone_motion.enabled": True,
 }
 
 
