@@ -27,18 +27,20 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from resilient_tracking import interrupts
+from resilient_tracking.models.sensor import PLAN_EPS, MeasurementModel
 from resilient_tracking.planning.cache import LruCache
 from resilient_tracking.planning.layout import ProblemInputs, Structure
 from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.nlp_cache import NLP_BUDGET
+from resilient_tracking.planning.plan_result import PlanResult
 from resilient_tracking.planning.solver_options import ProblemOptions
-from resilient_tracking.planning.spec import PlannerSpec, RouteSpec
+from resilient_tracking.planning.spec import PlannerSpec, RouteSpec, SubteamSpec
+from resilient_tracking.planning.subteams import SubteamPlanner
 
 log = logging.getLogger(__name__)
 
@@ -47,22 +49,6 @@ SOLVERS = ("ladder", "ipopt")
 
 #: The status of a plan made while its structure is still being built in the background.
 BUILDING = "structure building in the background"
-
-
-@dataclass(frozen=True)
-class PlanResult:
-    controls: np.ndarray  # (n, 2)
-    status: str
-    success: bool
-    #: solver iterations, summed over every attempt of this solve
-    iterations: int
-    solve_ms: float
-    #: "" when the first attempt succeeded, else which rung was used: "warm", "cold" or "safe"
-    fallback: str = ""
-    #: the rung that produced the controls: "sqp", "warm", "cold" or "safe"
-    rung: str = ""
-    #: (rung, return status) of every attempt, in order
-    attempts: tuple[tuple[str, str], ...] = field(default_factory=tuple)
 
 
 #: Test hook called after every solver attempt with (rung, solution, stats); it returns the
@@ -261,17 +247,24 @@ class LeaguePlanner(SolverLadder):
         options: ProblemOptions | dict[str, Any] | None = None,
         route: RouteSpec | None = None,
         background_builds: bool = False,
+        subteams: SubteamSpec | None = None,
     ):
         super().__init__(solver, fault_hook, background_builds)
         #: checked here, before any episode runs: an unknown key is an error naming it
         self.options = ProblemOptions.of(options)
         self.route = route
+        #: plans leagues larger than ``subteams.above`` as sub-teams; None: always jointly
+        self.subteams = (
+            None
+            if subteams is None
+            else SubteamPlanner(subteams, lambda s, m, q: SolverLadder.plan(self, s, m, q))
+        )
 
     @classmethod
     def from_spec(cls, spec: PlannerSpec, fault_hook: FaultHook | None = None) -> LeaguePlanner:
         """The planner a scenario's ``planner`` section asks for."""
         route = spec.route if spec.program == "route" else None
-        return cls(spec.solver, fault_hook=fault_hook, route=route)
+        return cls(spec.solver, fault_hook=fault_hook, route=route, subteams=spec.subteams)
 
     #: weighed in instructions of symbolic code, like the shared cache of symbolic problems
     PROBLEM_BUDGET = NLP_BUDGET
@@ -286,6 +279,31 @@ class LeaguePlanner(SolverLadder):
         problem.prepare(("sqp", "ipopt") if self.solver == "ladder" else ("ipopt",))
         return problem
 
+    def prepare_team(
+        self, n_robots: int, n_targets: int, sensor_model: type[MeasurementModel]
+    ) -> Structure | None:
+        """Before a run: build the window problem a team of ``n_robots`` plans its large leagues
+        with (:mod:`~resilient_tracking.planning.subteams`), and wait for its compiled code
+        (compiled once per machine, then loaded from the cache), so that no structure of a
+        large league is built during the run. Returns that structure; None when the team is
+        never planned as sub-teams."""
+        if self.subteams is None or n_robots <= self.subteams.spec.above:
+            return None
+        standoff = PLAN_EPS if self.route is None else self.route.standoff
+        structure = self.subteams.structure(
+            n_targets, self.route is not None, standoff, sensor_model
+        )
+        methods = ("sqp", "ipopt") if self.solver == "ladder" else ("ipopt",)
+        started = time.perf_counter()
+        log.info("building the sub-team problem %s", structure.label)
+        problem = self.problem(structure)
+        problem.prepare(methods)
+        problem.wait_for_compiler(methods)
+        log.info(
+            "sub-team problem %s ready in %.1f s", structure.label, time.perf_counter() - started
+        )
+        return structure
+
     def weigh(self, problem: LeagueProblem) -> float:
         """A problem's cache weight: the instructions of its symbolic code."""
         return float(problem.n_instructions)
@@ -296,5 +314,9 @@ class LeaguePlanner(SolverLadder):
         return problem
 
     def plan(self, structure: Structure, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
-        """Controls ``(n, 2)`` for one league from inputs ``q`` (see :meth:`SolverLadder.plan`)."""
+        """Controls ``(n, 2)`` for one league from inputs ``q`` (see :meth:`SolverLadder.plan`);
+        a league larger than ``subteams.above`` is planned as sub-teams
+        (:mod:`~resilient_tracking.planning.subteams`)."""
+        if self.subteams is not None and self.subteams.applies(structure):
+            return self.subteams.plan(members, q)
         return super().plan(structure, members, q)

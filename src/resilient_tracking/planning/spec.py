@@ -5,9 +5,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import (
-    Field,
-)
+from pydantic import Field, model_validator
 
 from resilient_tracking.spec import Strict
 
@@ -67,6 +65,46 @@ class RouteSpec(Strict):
     )
 
 
+class SubteamSpec(Strict):
+    """Large leagues planned as sub-teams (docs/model.md §9, docs/performance.md): a league of
+    more than ``above`` robots solves the league problem for ``size`` robots at a time, with
+    ``pinned`` teammates held at their planned step and every other robot's planned
+    measurements in the targets' prior; smaller leagues are solved jointly (the paper's
+    program)."""
+
+    above: int = Field(
+        20,
+        ge=1,
+        le=64,
+        description=(
+            "Leagues of more robots than this are planned as sub-teams; smaller ones jointly. "
+            "Set 64 to always solve jointly."
+        ),
+    )
+    size: int = Field(10, ge=1, le=64, description="Robots planned together in one sub-team.")
+    pinned: int = Field(
+        6,
+        ge=0,
+        le=64,
+        description=(
+            "Teammates of other sub-teams held at their planned step in each sub-team's "
+            "problem (the farthest ones, whose jamming rows of eq. 7d bind first)."
+        ),
+    )
+    sweeps: int = Field(
+        1, ge=1, le=10, description="Passes over the sub-teams per step (Gauss-Seidel sweeps)."
+    )
+
+    @model_validator(mode="after")
+    def _window_fits(self) -> SubteamSpec:
+        if self.size + self.pinned > self.above:
+            raise ValueError(
+                f"size + pinned ({self.size} + {self.pinned}) must not exceed above "
+                f"({self.above}): a sub-team's problem must be smaller than the leagues it splits"
+            )
+        return self
+
+
 class PlannerSpec(Strict):
     """How league problems are built and solved: the planner program (the paper's one-step
     program or the route program) and the solver (the fast SQP ladder or IPOPT only)."""
@@ -85,4 +123,7 @@ class PlannerSpec(Strict):
             "ladder: SQP warm-started from the previous step, then IPOPT warm, IPOPT cold, then "
             "hold position; ipopt: the same without the SQP rung."
         ),
+    )
+    subteams: SubteamSpec = Field(
+        SubteamSpec(), description="How leagues larger than subteams.above robots are planned."
     )

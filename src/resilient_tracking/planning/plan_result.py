@@ -1,0 +1,23 @@
+"""What one league plan returns: controls and how the solver ladder got them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    controls: np.ndarray  # (n, 2)
+    status: str
+    success: bool
+    #: solver iterations, summed over every attempt of this solve
+    iterations: int
+    solve_ms: float
+    #: "" when the first attempt succeeded, else which rung was used: "warm", "cold" or "safe"
+    fallback: str = ""
+    #: the rung that produced the controls: "sqp", "warm", "cold" or "safe"
+    rung: str = ""
+    #: (rung, return status) of every attempt, in order
+    attempts: tuple[tuple[str, str], ...] = field(default_factory=tuple)

@@ -1,0 +1,250 @@
+"""Large leagues planned as sub-teams: block coordinate descent on the league problem (eq. 9).
+
+A league of dozens of robots is one NLP whose size grows with the square of the team (every
+robot's information enters every target's trace; eq. 7d has a row per pair of teammates), and
+each new league composition is a new problem to build. Above ``above`` robots the league is
+planned instead as *sub-teams* of at most ``size`` robots, one after the other (a Gauss–Seidel
+sweep, repeated ``sweeps`` times), each solving the same league problem over a *window*:
+
+* its own robots, free;
+* ``pinned`` teammates of other sub-teams held at their planned step (their velocity bounds
+  closed on it), the ones farthest from the sub-team, so that the jamming rows (eq. 7d) that
+  bind — those with the farthest teammates — see them;
+* every other robot's planned measurement folded into the targets' prior information: with
+  ``A_j = prior_j + Σ_i s_i m_ij(x_i⁺)`` the tracking term of the window with the others fixed
+  is exactly the league's.
+
+Every window has ``size + pinned`` robots and its known zones padded to a multiple of
+:data:`ZONE_BUCKET` per kind (a padding zone lies far away and binds nothing), so one problem
+structure serves every sub-team, every league composition and every number of known zones up
+to the bucket: it is built once (:meth:`SubteamPlanner.structure`, before a run) instead of
+whenever the league or its knowledge changes. A robot's plan starts from its last planned
+velocity.
+docs/performance.md measures the time and the tracking quality against the joint solve.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from resilient_tracking.models.sensor import MeasurementModel
+from resilient_tracking.planning.layout import (
+    CommRow,
+    ProblemInputs,
+    SensingRow,
+    Structure,
+    _information_entries,
+)
+from resilient_tracking.planning.pieces import piece_functions
+from resilient_tracking.planning.plan_result import PlanResult
+from resilient_tracking.planning.spec import SubteamSpec
+
+#: Known zones per kind in a window's problem are padded up to a multiple of this.
+ZONE_BUCKET = 4
+#: Where a padding zone lies (m): far beyond any workspace, so its rows never bind.
+FAR = 1.0e4
+
+#: Plans one window: (structure, window members, window inputs) → its result.
+PlanWindow = Callable[[Structure, tuple[int, ...], ProblemInputs], PlanResult]
+
+
+def partition(positions: np.ndarray, size: int) -> list[np.ndarray]:
+    """Indices of ``positions`` in ``ceil(n / size)`` spatial groups of at most ``size``:
+    recursive bisection at the median of the wider axis, with the counts balanced."""
+    n = len(positions)
+    groups = math.ceil(n / size)
+
+    def split(index: np.ndarray, k: int) -> list[np.ndarray]:
+        if k <= 1:
+            return [index]
+        points = positions[index]
+        axis = int(np.ptp(points[:, 1]) > np.ptp(points[:, 0]))
+        order = index[np.argsort(points[:, axis], kind="stable")]
+        left = k // 2
+        cut = round(len(index) * left / k)
+        return split(order[:cut], left) + split(order[cut:], k - left)
+
+    return [np.sort(group) for group in split(np.arange(n), groups)]
+
+
+@dataclass
+class SubteamPlanner:
+    """Plans leagues of more than ``spec.above`` robots as sub-teams (module docstring),
+    each window through ``plan_window`` (the solver ladder)."""
+
+    spec: SubteamSpec
+    plan_window: PlanWindow
+
+    def __post_init__(self) -> None:
+        #: each robot's last planned velocity: where its next plan starts
+        self._last: dict[int, np.ndarray] = {}
+        self._pieces: dict[tuple[type, float], ca.Function] = {}
+
+    def applies(self, structure: Structure) -> bool:
+        """Whether a league of this structure is planned as sub-teams."""
+        return structure.n_robots > self.spec.above
+
+    def structure(
+        self,
+        n_targets: int,
+        route: bool,
+        standoff: float,
+        sensor_model: type[MeasurementModel],
+        n_sensing_zones: int = 0,
+        n_comm_zones: int = 0,
+    ) -> Structure:
+        """The problem structure of every window of a team tracking ``n_targets`` with up to
+        this many known zones of each kind (what to build before a run)."""
+        return Structure(
+            n_robots=self.spec.size + self.spec.pinned,
+            n_targets=n_targets,
+            n_sensing_zones=_bucket(n_sensing_zones),
+            n_comm_zones=_bucket(n_comm_zones),
+            route=route,
+            standoff=standoff,
+            sensor_model=sensor_model,
+        )
+
+    def plan(self, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
+        """Controls ``(n, 2)`` for the league ``members`` with inputs ``q``; the result sums
+        the windows' iterations and times, succeeds when every window did, and reports the
+        worst fallback."""
+        n, spec = len(members), self.spec
+        window = min(n, spec.size + spec.pinned)
+        velocity = np.array(
+            [self._last.get(robot, np.zeros(2)) for robot in members], dtype=float
+        ).reshape(n, 2)
+        velocity = np.clip(velocity, q.u_lower, q.u_upper)
+        info = self._information(q)
+        gained = q.sensing[:, None, None] * info(q.positions + velocity * q.dt)  # (n, N, 3)
+        groups = partition(q.positions, spec.size)
+        results = []
+        for _ in range(spec.sweeps):
+            for free in groups:
+                rest = np.setdiff1d(np.arange(n), free)
+                pinned = _farthest(q.positions, free, rest, window - len(free))
+                robots = np.concatenate([free, pinned])
+                outside = gained[rest].sum(axis=0)  # the others' planned information
+                sub = _window_inputs(q, robots, len(free), velocity, outside)
+                result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
+                results.append(result)
+                velocity[free] = result.controls[: len(free)]
+                gained[free] = q.sensing[free, None, None] * info(
+                    q.positions[free] + velocity[free] * q.dt
+                )
+        for robot, v in zip(members, velocity, strict=True):
+            self._last[robot] = v.copy()
+        return _combined(results, velocity)
+
+    def _information(self, q: ProblemInputs) -> Callable[[np.ndarray], np.ndarray]:
+        """``positions (n, 2) → (n, N, 3)``: each robot's planning information about each
+        target (the NLP's own information piece, evaluated numerically)."""
+        key = (q.sensor_model, float(q.standoff))
+        if key not in self._pieces:
+            self._pieces[key] = piece_functions(q.sensor_model, q.standoff)["info"]
+        piece = self._pieces[key]
+        targets, sensor = q.targets, q.sensor
+
+        def info(positions: np.ndarray) -> np.ndarray:
+            m, big_n = len(positions), len(targets)
+            xs = np.repeat(positions, big_n, axis=0).T
+            ps = np.tile(targets, (m, 1)).T
+            values = np.asarray(piece(xs, ps, sensor)[0])  # (3, m·N)
+            return values.T.reshape(m, big_n, 3)
+
+        return info
+
+    def forget(self) -> None:
+        """Drop the remembered velocities (a new episode)."""
+        self._last.clear()
+
+
+def _farthest(positions: np.ndarray, free: np.ndarray, rest: np.ndarray, k: int) -> np.ndarray:
+    """``k`` of ``rest``, those farthest from the nearest... of ``free``: by the largest
+    distance to any robot of ``free`` (the teammates whose jamming rows bind first), in index
+    order."""
+    if k <= 0:
+        return np.zeros(0, dtype=int)
+    gaps = np.linalg.norm(positions[rest, None, :] - positions[None, free, :], axis=2)
+    order = np.argsort(-gaps.max(axis=1), kind="stable")[:k]
+    return np.sort(rest[order])
+
+
+def _window_inputs(
+    q: ProblemInputs,
+    robots: np.ndarray,
+    n_free: int,
+    velocity: np.ndarray,
+    outside: np.ndarray,
+) -> ProblemInputs:
+    """The league inputs restricted to ``robots`` (the first ``n_free`` free, the rest pinned
+    at ``velocity``), with ``outside`` information ``(N, 3)`` added to the prior."""
+    pinned = robots[n_free:]
+    lower, upper = q.u_lower[robots].copy(), q.u_upper[robots].copy()
+    lower[n_free:] = upper[n_free:] = velocity[pinned]
+    sensing = q.sensing[robots].astype(float)
+    sensing[n_free:] = 0.0  # their information is in ``outside``
+    prior = _information_entries(q.prior_info) + outside
+    prior_info = np.stack(
+        [np.stack([prior[:, 0], prior[:, 1]], 1), np.stack([prior[:, 1], prior[:, 2]], 1)], 1
+    )
+    route = None if q.route is None else q.route[robots]
+    unlinked = None if q.unlinked is None else q.unlinked[np.ix_(robots, robots)]
+    return replace(
+        q,
+        positions=q.positions[robots],
+        sensing=sensing,
+        prior_info=prior_info,
+        u_lower=lower,
+        u_upper=upper,
+        route=route,
+        unlinked=unlinked,
+        sensing_zones=_padded(q.sensing_zones, _FAR_SENSING),
+        comm_zones=_padded(q.comm_zones, _FAR_COMM),
+    )
+
+
+def _bucket(count: int) -> int:
+    """``count`` rounded up to a multiple of :data:`ZONE_BUCKET` (at least one bucket)."""
+    return ZONE_BUCKET * max(1, math.ceil(count / ZONE_BUCKET))
+
+
+#: A padding zone's row: far away, unit covariance, no keep-out radius, margin, jamming or
+#: clearance (a sensing row of eq. 7c, a comm row of eq. 7d that hold with zero slack).
+_FAR_SENSING = np.zeros(SensingRow.WIDTH)
+_FAR_SENSING[SensingRow.MEAN] = FAR
+_FAR_SENSING[SensingRow.COVARIANCE] = (1.0, 0.0, 1.0)
+_FAR_COMM = np.zeros(CommRow.WIDTH)
+_FAR_COMM[CommRow.MEAN] = FAR
+_FAR_COMM[CommRow.COVARIANCE] = (1.0, 0.0, 1.0)
+
+
+def _padded(table: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """``table``'s rows followed by padding rows ``far`` up to :func:`_bucket` rows."""
+    table = table.reshape(-1, len(far))
+    missing = _bucket(len(table)) - len(table)
+    return np.vstack([table, np.tile(far, (missing, 1))])
+
+
+def _combined(results: list[PlanResult], velocity: np.ndarray) -> PlanResult:
+    """One league result from the windows' results."""
+    failed = [r for r in results if not r.success]
+    worst = failed[0] if failed else max(results, key=lambda r: _RUNGS.index(r.rung or "sqp"))
+    return PlanResult(
+        controls=velocity.copy(),
+        status=worst.status,
+        success=not failed,
+        iterations=sum(r.iterations for r in results),
+        solve_ms=sum(r.solve_ms for r in results),
+        fallback=worst.fallback,
+        rung=worst.rung,
+        attempts=tuple(a for r in results for a in r.attempts),
+    )
+
+
+_RUNGS = ("sqp", "warm", "cold", "safe")

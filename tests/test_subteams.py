@@ -1,0 +1,153 @@
+"""Large leagues planned as sub-teams: partition, windows, padding, and quality against the
+joint solve of the same league problem."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from helpers import league_inputs
+from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.planning.adaptation import chance_margin
+from resilient_tracking.planning.layout import (
+    ProblemInputs,
+    _information_entries,
+    comm_row,
+    sensing_row,
+)
+from resilient_tracking.planning.planner import LeaguePlanner
+from resilient_tracking.planning.spec import PlannerSpec, SubteamSpec
+from resilient_tracking.planning.subteams import (
+    ZONE_BUCKET,
+    SubteamPlanner,
+    _padded,
+    _window_inputs,
+    partition,
+)
+
+SMALL = SubteamSpec(above=8, size=4, pinned=2)
+
+
+def big_league(n: int = 12, big_n: int = 6, seed: int = 1) -> ProblemInputs:
+    """``n`` robots spread around ``big_n`` targets, one sensing and one comm zone nearby."""
+    rng = np.random.default_rng(seed)
+    positions = rng.uniform(-3, 3, (n, 2))
+    targets = rng.uniform(-2.5, 2.5, (big_n, 2))
+    szones = [sensing_row([0.5, 0.5], 0.2 * np.eye(2), r_safe=0.5, beta=chance_margin(0.02))]
+    czones = [comm_row([-1.0, 1.0], 0.15 * np.eye(2), 0.3, chance_margin(0.15), 0.0)]
+    return league_inputs(positions, targets, szones, czones, -np.ones((n, 2)), np.ones((n, 2)))
+
+
+def total_trace(q: ProblemInputs, controls: np.ndarray) -> float:
+    """``Σ_j tr P⁺_j`` of the league at ``controls`` (the tracking term of eq. 6)."""
+    sensor = RangeBearingSensor(15.0, 0.2, 15.0, 0.2)
+    moved = q.positions + controls * q.dt
+    info = sensor.information(moved[:, None, :], q.targets[None, :, :], q.standoff)
+    abc = _information_entries(q.prior_info) + (q.sensing[:, None, None] * info).sum(axis=0)
+    a, b, c = abc[:, 0], abc[:, 1], abc[:, 2]
+    return float(np.sum((a + c) / (a * c - b * b)))
+
+
+def test_partition_covers_every_robot_once_in_balanced_spatial_groups():
+    positions = np.random.default_rng(0).uniform(-5, 5, (37, 2))
+    groups = partition(positions, 10)
+    assert len(groups) == 4
+    assert sorted(np.concatenate(groups).tolist()) == list(range(37))
+    assert max(len(g) for g in groups) - min(len(g) for g in groups) <= 1
+    # spatial: the groups' spans are smaller than the whole team's
+    span = np.ptp(positions, axis=0).prod()
+    assert all(np.ptp(positions[g], axis=0).prod() < span for g in groups)
+
+
+def test_a_window_sees_the_same_information_as_the_league():
+    """Prior plus the window's sensing robots equals prior plus every robot: the window's
+    tracking term is the league's with the others held at their plan."""
+    q = big_league()
+    planner = SubteamPlanner(SMALL, lambda *a: None)  # type: ignore[arg-type, return-value]
+    info = planner._information(q)
+    velocity = np.random.default_rng(2).uniform(-0.5, 0.5, (12, 2))
+    gained = q.sensing[:, None, None] * info(q.positions + velocity * q.dt)
+    free = np.array([0, 3, 5, 7])
+    rest = np.setdiff1d(np.arange(12), free)
+    pinned = rest[:2]
+    sub = _window_inputs(q, np.concatenate([free, pinned]), 4, velocity, gained[rest].sum(0))
+    window = _information_entries(sub.prior_info) + gained[free].sum(0)
+    league = _information_entries(q.prior_info) + gained.sum(0)
+    np.testing.assert_allclose(window, league, rtol=1e-12)
+    # pinned robots hold their planned step and add no information of their own
+    np.testing.assert_array_equal(sub.u_lower[4:], velocity[pinned])
+    np.testing.assert_array_equal(sub.u_upper[4:], velocity[pinned])
+    assert not sub.sensing[4:].any()
+
+
+def test_padding_zones_bind_nothing():
+    """A window with its zones padded to the bucket plans exactly as without the padding."""
+    q = big_league(n=5, big_n=3)
+    padded = ProblemInputs(
+        **{
+            **q.__dict__,
+            "sensing_zones": _padded(q.sensing_zones, _far("sensing")),
+            "comm_zones": _padded(q.comm_zones, _far("comm")),
+        }
+    )
+    assert padded.structure().n_sensing_zones == ZONE_BUCKET
+    assert padded.structure().n_comm_zones == ZONE_BUCKET
+    planner = LeaguePlanner(solver="ipopt")
+    plain = planner.plan(q.structure(), tuple(range(5)), q)
+    with_padding = planner.plan(padded.structure(), tuple(range(5)), padded)
+    assert plain.success and with_padding.success
+    np.testing.assert_allclose(with_padding.controls, plain.controls, atol=1e-6)
+
+
+def _far(kind: str) -> np.ndarray:
+    from resilient_tracking.planning import subteams
+
+    return subteams._FAR_SENSING if kind == "sensing" else subteams._FAR_COMM
+
+
+def test_small_leagues_are_planned_jointly_bit_for_bit():
+    q = big_league(n=8)
+    joint = LeaguePlanner().plan(q.structure(), tuple(range(8)), q)
+    split = LeaguePlanner(subteams=SMALL).plan(q.structure(), tuple(range(8)), q)
+    np.testing.assert_array_equal(split.controls, joint.controls)
+    assert split.attempts == joint.attempts
+
+
+def test_sub_teams_track_within_five_percent_of_the_joint_solve_with_one_structure():
+    """Over a closed loop of 12 robots, the sub-team plans' summed trace stays within 5 % of
+    the joint plans', and every window shares one problem structure."""
+    joint_planner = LeaguePlanner()
+    split_planner = LeaguePlanner(subteams=SMALL)
+    q0 = big_league()
+    members = tuple(range(12))
+    traces = {"joint": [], "split": []}
+    for name, planner in (("joint", joint_planner), ("split", split_planner)):
+        q = q0
+        for _ in range(8):
+            result = planner.plan(q.structure(), members, q)
+            assert result.success, result.status
+            assert np.all(result.controls >= q.u_lower - 1e-9)
+            assert np.all(result.controls <= q.u_upper + 1e-9)
+            traces[name].append(total_trace(q, result.controls))
+            q = ProblemInputs(**{**q.__dict__, "positions": q.positions + result.controls * q.dt})
+    ratio = np.sum(traces["split"]) / np.sum(traces["joint"])
+    assert ratio <= 1.05, ratio
+    window_structures = [s for s in split_planner._problems if s.n_robots == 6]
+    assert len(window_structures) == 1
+    assert len(split_planner._problems) == 1  # nothing but the window was built
+
+
+def test_the_window_structure_is_built_before_a_run():
+    planner = LeaguePlanner(subteams=SMALL)
+    structure = planner.prepare_team(12, 6, RangeBearingSensor)
+    assert structure is not None and structure.n_robots == 6
+    assert structure in planner._problems
+    assert LeaguePlanner(subteams=SMALL).prepare_team(8, 6, RangeBearingSensor) is None
+
+
+def test_subteam_settings_are_checked_naming_the_field():
+    with pytest.raises(ValidationError, match="size \\+ pinned"):
+        SubteamSpec(above=10, size=8, pinned=4)
+    with pytest.raises(ValidationError, match="subteams"):
+        PlannerSpec.model_validate({"subteams": {"size": 0}})
