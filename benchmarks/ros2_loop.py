@@ -2,6 +2,7 @@
 
     python -m benchmarks.ros2_loop            # 150 ticks each at 3x3 and 10x10
     python -m benchmarks.ros2_loop --quick    # 40 ticks each
+    python -m benchmarks.ros2_loop --swarm    # 150 ticks of the 40-robot swarm-40x20
 
 For each size a world node runs free at wall-clock rate in its own process (as ``rtrack world``
 does) and a tracker node in this one, both on DDS over loopback in a private domain. Measured
@@ -34,8 +35,11 @@ from resilient_tracking.sim.episode import start_truth
 SEED = 3
 
 
-def cases(steps: int) -> dict[str, Scenario]:
-    """3x3: the paper's sensing-temp; 10x10: the first ten robots and targets of the soak."""
+def cases(steps: int, swarm: bool = False) -> dict[str, Scenario]:
+    """3x3: the paper's sensing-temp; 10x10: the first ten robots and targets of the soak;
+    with ``swarm``, 40x20 (swarm-40x20, its leagues planned as sub-teams) alone."""
+    if swarm:
+        return {"40x20": load_scenario(SCENARIOS / "swarm-40x20.yaml").with_overrides(steps=steps)}
     small = load_scenario(SCENARIOS / "sensing-temp.yaml")
     soak = load_scenario(SCENARIOS / "soak-20x20.yaml")
     large = soak.with_overrides(robots=soak.robots[:10], targets=soak.targets[:10])
@@ -108,11 +112,12 @@ def measure(scenario: Scenario, domain: int, warm_up: bool = False) -> dict[str,
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--swarm", action="store_true", help="the 40-robot swarm-40x20 only")
     args = parser.parse_args(argv)
     steps = 40 if args.quick else 150
     domain = 100 + os.getpid() % 100
     results: dict[str, Any] = {}
-    for i, (label, scenario) in enumerate(cases(steps).items()):
+    for i, (label, scenario) in enumerate(cases(steps, args.swarm).items()):
         # cold first: the warmed-up run would leave the process's problem cache filled
         results[label] = measure(scenario, domain + 2 * i)
         results[f"{label}, warmed up"] = measure(scenario, domain + 2 * i + 1, warm_up=True)
@@ -133,7 +138,10 @@ def main(argv: list[str] | None = None) -> None:
     ]
     header = ["team", "ticks", "holds", "ticks building", "median ms", "p99 ms", "max ms"]
     print(table(rows, [*header, "period ms", "margin (median)", "margin (p99)"]))
-    path = save("ros2_loop", {"machine": machine(), "steps": steps, "results": results})
+    path = save(
+        "ros2_loop_swarm" if args.swarm else "ros2_loop",
+        {"machine": machine(), "steps": steps, "results": results},
+    )
     print(f"saved {path}")
 
 

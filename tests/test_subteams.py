@@ -114,11 +114,14 @@ def test_small_leagues_are_planned_jointly_bit_for_bit():
     assert split.attempts == joint.attempts
 
 
-def test_sub_teams_track_within_five_percent_of_the_joint_solve_with_one_structure():
+@pytest.mark.parametrize("targets", [6, 4])
+def test_sub_teams_track_within_five_percent_of_the_joint_solve_with_one_structure(targets):
     """Over a closed loop of 12 robots, the sub-team plans' summed trace stays within 5 % of
-    the joint plans', and every window shares one problem structure."""
+    the joint plans' (with every target in each window, and with the 4 nearest), and every
+    window shares one problem structure."""
     joint_planner = LeaguePlanner()
-    split_planner = LeaguePlanner(subteams=SMALL)
+    spec = SubteamSpec(above=8, size=4, pinned=2, targets=targets)
+    split_planner = LeaguePlanner(subteams=spec)
     q0 = big_league()
     members = tuple(range(12))
     traces = {"joint": [], "split": []}
@@ -133,16 +136,17 @@ def test_sub_teams_track_within_five_percent_of_the_joint_solve_with_one_structu
             q = ProblemInputs(**{**q.__dict__, "positions": q.positions + result.controls * q.dt})
     ratio = np.sum(traces["split"]) / np.sum(traces["joint"])
     assert ratio <= 1.05, ratio
-    window_structures = [s for s in split_planner._problems if s.n_robots == 6]
+    window_structures = list(split_planner.windows._problems)
     assert len(window_structures) == 1
-    assert len(split_planner._problems) == 1  # nothing but the window was built
+    assert window_structures[0].n_targets == targets
+    assert not list(split_planner._problems)  # no league structure was built
 
 
 def test_the_window_structure_is_built_before_a_run():
     planner = LeaguePlanner(subteams=SMALL)
     structure = planner.prepare_team(12, 6, RangeBearingSensor)
     assert structure is not None and structure.n_robots == 6
-    assert structure in planner._problems
+    assert structure in planner.windows._problems
     assert LeaguePlanner(subteams=SMALL).prepare_team(8, 6, RangeBearingSensor) is None
 
 
@@ -151,3 +155,10 @@ def test_subteam_settings_are_checked_naming_the_field():
         SubteamSpec(above=10, size=8, pinned=4)
     with pytest.raises(ValidationError, match="subteams"):
         PlannerSpec.model_validate({"subteams": {"size": 0}})
+
+
+def test_background_builds_reach_the_sub_team_windows():
+    planner = LeaguePlanner(subteams=SMALL)
+    planner.background_builds = True
+    assert planner.windows is not None and planner.windows.background_builds
+    planner.close()

@@ -27,6 +27,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,7 @@ from resilient_tracking.planning.layout import ProblemInputs, Structure
 from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.nlp_cache import NLP_BUDGET
 from resilient_tracking.planning.plan_result import PlanResult
-from resilient_tracking.planning.solver_options import ProblemOptions
+from resilient_tracking.planning.solver_options import AUTO, SLOTS, ProblemOptions
 from resilient_tracking.planning.spec import PlannerSpec, RouteSpec, SubteamSpec
 from resilient_tracking.planning.subteams import SubteamPlanner
 
@@ -253,12 +254,19 @@ class LeaguePlanner(SolverLadder):
         #: checked here, before any episode runs: an unknown key is an error naming it
         self.options = ProblemOptions.of(options)
         self.route = route
-        #: plans leagues larger than ``subteams.above`` as sub-teams; None: always jointly
-        self.subteams = (
-            None
-            if subteams is None
-            else SubteamPlanner(subteams, lambda s, m, q: SolverLadder.plan(self, s, m, q))
-        )
+        #: plans leagues larger than ``subteams.above`` as sub-teams, each sub-team's window
+        #: with :attr:`windows`; None: always jointly
+        self.subteams: SubteamPlanner | None = None
+        self.windows: LeaguePlanner | None = None
+        if subteams is not None:
+            self.windows = LeaguePlanner(
+                solver,
+                fault_hook,
+                _window_options(self.options, subteams),
+                route,
+                background_builds,
+            )
+            self.subteams = SubteamPlanner(subteams, self.windows.plan)
 
     @classmethod
     def from_spec(cls, spec: PlannerSpec, fault_hook: FaultHook | None = None) -> LeaguePlanner:
@@ -296,7 +304,8 @@ class LeaguePlanner(SolverLadder):
         methods = ("sqp", "ipopt") if self.solver == "ladder" else ("ipopt",)
         started = time.perf_counter()
         log.info("building the sub-team problem %s", structure.label)
-        problem = self.problem(structure)
+        assert self.windows is not None
+        problem = self.windows.problem(structure)
         problem.prepare(methods)
         problem.wait_for_compiler(methods)
         log.info(
@@ -320,3 +329,30 @@ class LeaguePlanner(SolverLadder):
         if self.subteams is not None and self.subteams.applies(structure):
             return self.subteams.plan(members, q)
         return super().plan(structure, members, q)
+
+    @property
+    def background_builds(self) -> bool:
+        """Whether new structures are built in a worker thread (the sub-team windows' too)."""
+        return self._background_builds
+
+    @background_builds.setter
+    def background_builds(self, value: bool) -> None:
+        self._background_builds = value
+        windows = getattr(self, "windows", None)
+        if windows is not None:
+            windows.background_builds = value
+
+    def close(self) -> None:
+        """Stop background building, the sub-team windows' too."""
+        super().close()
+        if self.windows is not None:
+            self.windows.close()
+
+
+def _window_options(options: ProblemOptions, spec: SubteamSpec) -> ProblemOptions:
+    """A window's problem options: the SQP's reduced problem keeps a row for every teammate of
+    the window (its pinned teammates are the far ones, whose rows bind together), so it is
+    solved every step instead of falling back to the full problem."""
+    if options.slots != AUTO:
+        return options
+    return replace(options, slots=replace(SLOTS, mates=spec.size + spec.pinned - 1))

@@ -91,6 +91,15 @@ class SubteamSpec(Strict):
             "problem (the farthest ones, whose jamming rows of eq. 7d bind first)."
         ),
     )
+    targets: int = Field(
+        10,
+        ge=1,
+        le=64,
+        description=(
+            "Targets in each sub-team's problem: those nearest to its robots (the others' terms "
+            "barely depend on them)."
+        ),
+    )
     sweeps: int = Field(
         1, ge=1, le=10, description="Passes over the sub-teams per step (Gauss-Seidel sweeps)."
     )

@@ -12,7 +12,9 @@ sweep, repeated ``sweeps`` times), each solving the same league problem over a *
   bind — those with the farthest teammates — see them;
 * every other robot's planned measurement folded into the targets' prior information: with
   ``A_j = prior_j + Σ_i s_i m_ij(x_i⁺)`` the tracking term of the window with the others fixed
-  is exactly the league's.
+  is exactly the league's;
+* the ``targets`` targets nearest to its free robots: a target far from all of them has a
+  term they barely change (the information of eq. 2 fades with distance), left out.
 
 Every window has ``size + pinned`` robots and its known zones padded to a multiple of
 :data:`ZONE_BUCKET` per kind (a padding zone lies far away and binds nothing), so one problem
@@ -26,6 +28,7 @@ docs/performance.md measures the time and the tracking quality against the joint
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -102,7 +105,7 @@ class SubteamPlanner:
         this many known zones of each kind (what to build before a run)."""
         return Structure(
             n_robots=self.spec.size + self.spec.pinned,
-            n_targets=n_targets,
+            n_targets=min(n_targets, self.spec.targets),
             n_sensing_zones=_bucket(n_sensing_zones),
             n_comm_zones=_bucket(n_comm_zones),
             route=route,
@@ -112,8 +115,9 @@ class SubteamPlanner:
 
     def plan(self, members: tuple[int, ...], q: ProblemInputs) -> PlanResult:
         """Controls ``(n, 2)`` for the league ``members`` with inputs ``q``; the result sums
-        the windows' iterations and times, succeeds when every window did, and reports the
-        worst fallback."""
+        the windows' iterations, takes the whole decomposition's time, succeeds when every
+        window did, and reports the worst fallback."""
+        started = time.perf_counter()
         n, spec = len(members), self.spec
         window = min(n, spec.size + spec.pinned)
         velocity = np.array(
@@ -130,7 +134,8 @@ class SubteamPlanner:
                 pinned = _farthest(q.positions, free, rest, window - len(free))
                 robots = np.concatenate([free, pinned])
                 outside = gained[rest].sum(axis=0)  # the others' planned information
-                sub = _window_inputs(q, robots, len(free), velocity, outside)
+                targets = _nearest(q.targets, q.positions[free], spec.targets)
+                sub = _window_inputs(q, robots, len(free), velocity, outside, targets)
                 result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
                 results.append(result)
                 velocity[free] = result.controls[: len(free)]
@@ -139,7 +144,7 @@ class SubteamPlanner:
                 )
         for robot, v in zip(members, velocity, strict=True):
             self._last[robot] = v.copy()
-        return _combined(results, velocity)
+        return _combined(results, velocity, (time.perf_counter() - started) * 1e3)
 
     def _information(self, q: ProblemInputs) -> Callable[[np.ndarray], np.ndarray]:
         """``positions (n, 2) → (n, N, 3)``: each robot's planning information about each
@@ -159,15 +164,19 @@ class SubteamPlanner:
 
         return info
 
-    def forget(self) -> None:
-        """Drop the remembered velocities (a new episode)."""
-        self._last.clear()
+
+def _nearest(targets: np.ndarray, robots: np.ndarray, k: int) -> np.ndarray:
+    """The ``k`` targets nearest to any of ``robots``, in index order (all when there are no
+    more than ``k``)."""
+    if len(targets) <= k:
+        return np.arange(len(targets))
+    gaps = np.linalg.norm(targets[:, None, :] - robots[None, :, :], axis=2).min(axis=1)
+    return np.sort(np.argsort(gaps, kind="stable")[:k])
 
 
 def _farthest(positions: np.ndarray, free: np.ndarray, rest: np.ndarray, k: int) -> np.ndarray:
-    """``k`` of ``rest``, those farthest from the nearest... of ``free``: by the largest
-    distance to any robot of ``free`` (the teammates whose jamming rows bind first), in index
-    order."""
+    """The ``k`` robots of ``rest`` with the largest distance to a robot of ``free`` (the
+    teammates whose jamming rows bind first), in index order."""
     if k <= 0:
         return np.zeros(0, dtype=int)
     gaps = np.linalg.norm(positions[rest, None, :] - positions[None, free, :], axis=2)
@@ -181,15 +190,19 @@ def _window_inputs(
     n_free: int,
     velocity: np.ndarray,
     outside: np.ndarray,
+    targets: np.ndarray | None = None,
 ) -> ProblemInputs:
     """The league inputs restricted to ``robots`` (the first ``n_free`` free, the rest pinned
-    at ``velocity``), with ``outside`` information ``(N, 3)`` added to the prior."""
+    at ``velocity``) and ``targets`` (all when None), with ``outside`` information ``(N, 3)``
+    added to the prior."""
+    if targets is None:
+        targets = np.arange(len(q.targets))
     pinned = robots[n_free:]
     lower, upper = q.u_lower[robots].copy(), q.u_upper[robots].copy()
     lower[n_free:] = upper[n_free:] = velocity[pinned]
     sensing = q.sensing[robots].astype(float)
     sensing[n_free:] = 0.0  # their information is in ``outside``
-    prior = _information_entries(q.prior_info) + outside
+    prior = (_information_entries(q.prior_info) + outside)[targets]
     prior_info = np.stack(
         [np.stack([prior[:, 0], prior[:, 1]], 1), np.stack([prior[:, 1], prior[:, 2]], 1)], 1
     )
@@ -199,6 +212,7 @@ def _window_inputs(
         q,
         positions=q.positions[robots],
         sensing=sensing,
+        targets=q.targets[targets],
         prior_info=prior_info,
         u_lower=lower,
         u_upper=upper,
@@ -231,8 +245,8 @@ def _padded(table: np.ndarray, far: np.ndarray) -> np.ndarray:
     return np.vstack([table, np.tile(far, (missing, 1))])
 
 
-def _combined(results: list[PlanResult], velocity: np.ndarray) -> PlanResult:
-    """One league result from the windows' results."""
+def _combined(results: list[PlanResult], velocity: np.ndarray, wall_ms: float) -> PlanResult:
+    """One league result from the windows' results, taking ``wall_ms``."""
     failed = [r for r in results if not r.success]
     worst = failed[0] if failed else max(results, key=lambda r: _RUNGS.index(r.rung or "sqp"))
     return PlanResult(
@@ -240,7 +254,7 @@ def _combined(results: list[PlanResult], velocity: np.ndarray) -> PlanResult:
         status=worst.status,
         success=not failed,
         iterations=sum(r.iterations for r in results),
-        solve_ms=sum(r.solve_ms for r in results),
+        solve_ms=wall_ms,
         fallback=worst.fallback,
         rung=worst.rung,
         attempts=tuple(a for r in results for a in r.attempts),
