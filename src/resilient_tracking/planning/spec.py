@@ -81,9 +81,9 @@ class SubteamSpec(Strict):
             "Set 64 to always solve jointly."
         ),
     )
-    size: int = Field(10, ge=1, le=64, description="Robots planned together in one sub-team.")
+    size: int = Field(8, ge=1, le=64, description="Robots planned together in one sub-team.")
     pinned: int = Field(
-        6,
+        4,
         ge=0,
         le=64,
         description=(
