@@ -1,4 +1,5 @@
 """The scenarios shipped with the package: the paper's six, the three benchmarks, a soak run,
+``swarm-40x20`` (40 robots, planned as sub-teams),
 ``bearing-only`` (the sensing-temp mission with a bearing-only sensor), four with targets
 that react to the world: ``evasive-open``, ``evasive-zones``, ``lure-sensing`` and ``lure-comm``,
 two whose zones degrade instead of disabling: ``sensing-degrade`` and ``comm-degrade``,
