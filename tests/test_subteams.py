@@ -27,6 +27,8 @@ from resilient_tracking.planning.subteams import (
 )
 
 SMALL = SubteamSpec(above=8, size=4, pinned=2)
+#: the sensor of tests/helpers.py's league inputs
+SENSOR = RangeBearingSensor(15.0, 0.2, 15.0, 0.2)
 
 
 def big_league(n: int = 12, big_n: int = 6, seed: int = 1) -> ProblemInputs:
@@ -41,9 +43,8 @@ def big_league(n: int = 12, big_n: int = 6, seed: int = 1) -> ProblemInputs:
 
 def total_trace(q: ProblemInputs, controls: np.ndarray) -> float:
     """``Σ_j tr P⁺_j`` of the league at ``controls`` (the tracking term of eq. 6)."""
-    sensor = RangeBearingSensor(15.0, 0.2, 15.0, 0.2)
     moved = q.positions + controls * q.dt
-    info = sensor.information(moved[:, None, :], q.targets[None, :, :], q.standoff)
+    info = SENSOR.information(moved[:, None, :], q.targets[None, :, :], q.standoff)
     abc = _information_entries(q.prior_info) + (q.sensing[:, None, None] * info).sum(axis=0)
     a, b, c = abc[:, 0], abc[:, 1], abc[:, 2]
     return float(np.sum((a + c) / (a * c - b * b)))
@@ -71,7 +72,9 @@ def test_a_window_sees_the_same_information_as_the_league():
     free = np.array([0, 3, 5, 7])
     rest = np.setdiff1d(np.arange(12), free)
     pinned = rest[:2]
-    sub = _window_inputs(q, np.concatenate([free, pinned]), 4, velocity, gained[rest].sum(0))
+    shared = ProblemInputs(**{**q.__dict__, "prior_info": _information_entries(q.prior_info)})
+    robots = np.concatenate([free, pinned])
+    sub = _window_inputs(shared, robots, 4, velocity, gained[rest].sum(0), np.arange(6))
     window = _information_entries(sub.prior_info) + gained[free].sum(0)
     league = _information_entries(q.prior_info) + gained.sum(0)
     np.testing.assert_allclose(window, league, rtol=1e-12)
@@ -144,10 +147,22 @@ def test_sub_teams_track_within_five_percent_of_the_joint_solve_with_one_structu
 
 def test_the_window_structure_is_built_before_a_run():
     planner = LeaguePlanner(subteams=SMALL)
-    structure = planner.prepare_team(12, 6, RangeBearingSensor)
+    structure = planner.prepare_team(12, 6, SENSOR)
     assert structure is not None and structure.n_robots == 6
     assert structure in planner.windows._problems
-    assert LeaguePlanner(subteams=SMALL).prepare_team(8, 6, RangeBearingSensor) is None
+    assert planner.subteams is not None and planner.subteams.sensor is SENSOR
+    assert LeaguePlanner(subteams=SMALL).prepare_team(8, 6, SENSOR) is None
+
+
+def test_the_sensors_numpy_information_is_the_nlps():
+    """The fast path (the sensor's NumPy twin) gives the NLP's own information piece."""
+    q = big_league()
+    positions = np.random.default_rng(3).uniform(-3, 3, (7, 2))
+    twin = SubteamPlanner(SMALL, lambda *a: None, SENSOR)  # type: ignore[arg-type, return-value]
+    piece = SubteamPlanner(SMALL, lambda *a: None)  # type: ignore[arg-type, return-value]
+    np.testing.assert_allclose(
+        twin._information(q)(positions), piece._information(q)(positions), rtol=1e-12
+    )
 
 
 def test_subteam_settings_are_checked_naming_the_field():

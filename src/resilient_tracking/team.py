@@ -241,7 +241,7 @@ def build_team(
     episode and a node on robots build the same team."""
     config = team_config(scenario)
     planner = LeaguePlanner.from_spec(scenario.planner, fault_hook=fault_hook)
-    planner.prepare_team(len(scenario.robots), len(scenario.targets), type(config.sensor))
+    planner.prepare_team(len(scenario.robots), len(scenario.targets), config.sensor)
     team = Team(
         make_policy(policy_name, scenario, config, planner),
         prior_estimate(scenario, initial_targets, seed),

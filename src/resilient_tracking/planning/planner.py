@@ -288,7 +288,7 @@ class LeaguePlanner(SolverLadder):
         return problem
 
     def prepare_team(
-        self, n_robots: int, n_targets: int, sensor_model: type[MeasurementModel]
+        self, n_robots: int, n_targets: int, sensor: MeasurementModel
     ) -> Structure | None:
         """Before a run: build the window problem a team of ``n_robots`` plans its large leagues
         with (:mod:`~resilient_tracking.planning.subteams`), and wait for its compiled code
@@ -297,9 +297,10 @@ class LeaguePlanner(SolverLadder):
         never planned as sub-teams."""
         if self.subteams is None or n_robots <= self.subteams.spec.above:
             return None
+        self.subteams.sensor = sensor
         standoff = PLAN_EPS if self.route is None else self.route.standoff
         structure = self.subteams.structure(
-            n_targets, self.route is not None, standoff, sensor_model
+            n_targets, self.route is not None, standoff, type(sensor)
         )
         methods = ("sqp", "ipopt") if self.solver == "ladder" else ("ipopt",)
         started = time.perf_counter()

@@ -82,6 +82,9 @@ class SubteamPlanner:
 
     spec: SubteamSpec
     plan_window: PlanWindow
+    #: the team's sensor, whose NumPy information model stands in for the NLP's (None: the
+    #: NLP's own piece is evaluated)
+    sensor: MeasurementModel | None = None
 
     def __post_init__(self) -> None:
         #: each robot's last planned velocity: where its next plan starts
@@ -126,16 +129,24 @@ class SubteamPlanner:
         velocity = np.clip(velocity, q.u_lower, q.u_upper)
         info = self._information(q)
         gained = q.sensing[:, None, None] * info(q.positions + velocity * q.dt)  # (n, N, 3)
-        groups = partition(q.positions, spec.size)
+        # what every window shares this step, computed once
+        shared = replace(
+            q,
+            prior_info=_information_entries(q.prior_info),
+            sensing_zones=_padded(q.sensing_zones, _FAR_SENSING),
+            comm_zones=_padded(q.comm_zones, _FAR_COMM),
+        )
+        robot_gaps = _distances(q.positions, q.positions)
+        target_gaps = _distances(q.targets, q.positions)
         results = []
         for _ in range(spec.sweeps):
-            for free in groups:
+            for free in partition(q.positions, spec.size):
                 rest = np.setdiff1d(np.arange(n), free)
-                pinned = _farthest(q.positions, free, rest, window - len(free))
+                pinned = _farthest(robot_gaps[np.ix_(rest, free)], rest, window - len(free))
                 robots = np.concatenate([free, pinned])
                 outside = gained[rest].sum(axis=0)  # the others' planned information
-                targets = _nearest(q.targets, q.positions[free], spec.targets)
-                sub = _window_inputs(q, robots, len(free), velocity, outside, targets)
+                targets = _nearest(target_gaps[:, free], spec.targets)
+                sub = _window_inputs(shared, robots, len(free), velocity, outside, targets)
                 result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
                 results.append(result)
                 velocity[free] = result.controls[: len(free)]
@@ -148,66 +159,72 @@ class SubteamPlanner:
 
     def _information(self, q: ProblemInputs) -> Callable[[np.ndarray], np.ndarray]:
         """``positions (n, 2) → (n, N, 3)``: each robot's planning information about each
-        target (the NLP's own information piece, evaluated numerically)."""
+        target: the sensor's NumPy twin of the NLP's information piece when the team's
+        sensor is known (:attr:`sensor`), else the piece itself, evaluated numerically."""
+        targets = q.targets
+        sensor = self.sensor
+        if sensor is not None and type(sensor) is q.sensor_model:
+            eps = float(q.standoff)
+            return lambda positions: sensor.information(
+                positions[:, None, :], targets[None, :, :], eps
+            )
         key = (q.sensor_model, float(q.standoff))
         if key not in self._pieces:
             self._pieces[key] = piece_functions(q.sensor_model, q.standoff)["info"]
-        piece = self._pieces[key]
-        targets, sensor = q.targets, q.sensor
+        piece, parameters = self._pieces[key], q.sensor
 
         def info(positions: np.ndarray) -> np.ndarray:
             m, big_n = len(positions), len(targets)
             xs = np.repeat(positions, big_n, axis=0).T
             ps = np.tile(targets, (m, 1)).T
-            values = np.asarray(piece(xs, ps, sensor)[0])  # (3, m·N)
+            values = np.asarray(piece(xs, ps, parameters)[0])  # (3, m·N)
             return values.T.reshape(m, big_n, 3)
 
         return info
 
 
-def _nearest(targets: np.ndarray, robots: np.ndarray, k: int) -> np.ndarray:
-    """The ``k`` targets nearest to any of ``robots``, in index order (all when there are no
-    more than ``k``)."""
-    if len(targets) <= k:
-        return np.arange(len(targets))
-    gaps = np.linalg.norm(targets[:, None, :] - robots[None, :, :], axis=2).min(axis=1)
-    return np.sort(np.argsort(gaps, kind="stable")[:k])
+def _distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(len(a), len(b))`` distances between the rows of ``a`` and ``b``."""
+    return np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
 
 
-def _farthest(positions: np.ndarray, free: np.ndarray, rest: np.ndarray, k: int) -> np.ndarray:
-    """The ``k`` robots of ``rest`` with the largest distance to a robot of ``free`` (the
-    teammates whose jamming rows bind first), in index order."""
+def _nearest(gaps: np.ndarray, k: int) -> np.ndarray:
+    """Of targets at distances ``gaps`` (targets × robots) from some robots, the ``k`` nearest
+    to any of them, in index order (all when there are no more than ``k``)."""
+    if len(gaps) <= k:
+        return np.arange(len(gaps))
+    return np.sort(np.argsort(gaps.min(axis=1), kind="stable")[:k])
+
+
+def _farthest(gaps: np.ndarray, rest: np.ndarray, k: int) -> np.ndarray:
+    """The ``k`` robots of ``rest`` with the largest distance to a robot of a group (``gaps``:
+    rest × group; the teammates whose jamming rows bind first), in index order."""
     if k <= 0:
         return np.zeros(0, dtype=int)
-    gaps = np.linalg.norm(positions[rest, None, :] - positions[None, free, :], axis=2)
     order = np.argsort(-gaps.max(axis=1), kind="stable")[:k]
     return np.sort(rest[order])
 
 
 def _window_inputs(
-    q: ProblemInputs,
+    shared: ProblemInputs,
     robots: np.ndarray,
     n_free: int,
     velocity: np.ndarray,
     outside: np.ndarray,
-    targets: np.ndarray | None = None,
+    targets: np.ndarray,
 ) -> ProblemInputs:
-    """The league inputs restricted to ``robots`` (the first ``n_free`` free, the rest pinned
-    at ``velocity``) and ``targets`` (all when None), with ``outside`` information ``(N, 3)``
-    added to the prior."""
-    if targets is None:
-        targets = np.arange(len(q.targets))
+    """The league inputs ``shared`` (its prior as ``(N, 3)`` information entries, its zones
+    padded) restricted to ``robots`` (the first ``n_free`` free, the rest pinned at
+    ``velocity``) and ``targets``, with ``outside`` information ``(N, 3)`` added to the
+    prior."""
+    q = shared
     pinned = robots[n_free:]
     lower, upper = q.u_lower[robots].copy(), q.u_upper[robots].copy()
     lower[n_free:] = upper[n_free:] = velocity[pinned]
     sensing = q.sensing[robots].astype(float)
     sensing[n_free:] = 0.0  # their information is in ``outside``
-    prior = (_information_entries(q.prior_info) + outside)[targets]
-    prior_info = np.stack(
-        [np.stack([prior[:, 0], prior[:, 1]], 1), np.stack([prior[:, 1], prior[:, 2]], 1)], 1
-    )
-    route = None if q.route is None else q.route[robots]
-    unlinked = None if q.unlinked is None else q.unlinked[np.ix_(robots, robots)]
+    a, b, c = (q.prior_info + outside)[targets].T
+    prior_info = np.stack([np.stack([a, b], 1), np.stack([b, c], 1)], 1)
     return replace(
         q,
         positions=q.positions[robots],
@@ -216,10 +233,8 @@ def _window_inputs(
         prior_info=prior_info,
         u_lower=lower,
         u_upper=upper,
-        route=route,
-        unlinked=unlinked,
-        sensing_zones=_padded(q.sensing_zones, _FAR_SENSING),
-        comm_zones=_padded(q.comm_zones, _FAR_COMM),
+        route=None if q.route is None else q.route[robots],
+        unlinked=None if q.unlinked is None else q.unlinked[np.ix_(robots, robots)],
     )
 
 
