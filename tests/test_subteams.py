@@ -154,6 +154,17 @@ def test_the_window_structure_is_built_before_a_run():
     assert LeaguePlanner(subteams=SMALL).prepare_team(8, 6, SENSOR) is None
 
 
+def test_in_a_large_team_a_league_larger_than_a_window_is_split_too():
+    planner = LeaguePlanner(subteams=SMALL)
+    q = big_league(n=8)
+    assert planner.subteams is not None and not planner.subteams.applies(q.structure())
+    planner.prepare_team(12, 6, SENSOR)
+    assert planner.subteams.applies(q.structure())  # 8 robots > a window of 6
+    assert not planner.subteams.applies(big_league(n=6).structure())
+    result = planner.plan(q.structure(), tuple(range(8)), q)
+    assert result.success and not list(planner._problems)
+
+
 def test_the_sensors_numpy_information_is_the_nlps():
     """The fast path (the sensor's NumPy twin) gives the NLP's own information piece."""
     q = big_league()

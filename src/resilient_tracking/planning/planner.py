@@ -297,7 +297,7 @@ class LeaguePlanner(SolverLadder):
         never planned as sub-teams."""
         if self.subteams is None or n_robots <= self.subteams.spec.above:
             return None
-        self.subteams.sensor = sensor
+        self.subteams.sensor, self.subteams.large_team = sensor, True
         standoff = PLAN_EPS if self.route is None else self.route.standoff
         structure = self.subteams.structure(
             n_targets, self.route is not None, standoff, type(sensor)

@@ -82,6 +82,8 @@ class SubteamPlanner:
 
     spec: SubteamSpec
     plan_window: PlanWindow
+    #: whether the team has more than ``above`` robots (set before a run)
+    large_team: bool = False
     #: the team's sensor, whose NumPy information model stands in for the NLP's (None: the
     #: NLP's own piece is evaluated)
     sensor: MeasurementModel | None = None
@@ -92,8 +94,12 @@ class SubteamPlanner:
         self._pieces: dict[tuple[type, float], ca.Function] = {}
 
     def applies(self, structure: Structure) -> bool:
-        """Whether a league of this structure is planned as sub-teams."""
-        return structure.n_robots > self.spec.above
+        """Whether a league of this structure is planned as sub-teams: when it has more than
+        ``above`` robots, and in a team of more than ``above`` (:attr:`large_team`) when it
+        has more than a window's, so that the parts of a split swarm also reuse the window's
+        problem instead of building their own."""
+        n = structure.n_robots
+        return n > self.spec.above or (self.large_team and n > self.spec.size + self.spec.pinned)
 
     def structure(
         self,
