@@ -57,7 +57,7 @@ def scenario_data(case: str) -> dict[str, Any]:
         data["robots"].append({"start": [-5.5 if k % 2 == 0 else 5.5, round(-7.6 + 0.66 * k, 2)]})
     for k in range(12):
         angle = 2 * np.pi * k / 12
-        center = [round(6.5 * np.cos(angle), 2), round(6.5 * np.sin(angle), 2)]
+        center = [round(6.5 * float(np.cos(angle)), 2), round(6.5 * float(np.sin(angle)), 2)]
         start = [round(center[0] + 1.0, 2), center[1]]
         speed = 0.12 if k % 2 == 0 else -0.12
         motion = {"type": "circle", "center": center, "angular_speed": speed}

@@ -188,3 +188,19 @@ def test_background_builds_reach_the_sub_team_windows():
     planner.background_builds = True
     assert planner.windows is not None and planner.windows.background_builds
     planner.close()
+
+
+def test_a_window_keeps_only_the_zones_that_can_bind_it():
+    """Zones far from every robot of a window are left out (then padded): the window plans the
+    same as with every zone."""
+    from resilient_tracking.planning.subteams import _binding_zones
+
+    q = big_league(n=5, big_n=3)
+    far = sensing_row([40.0, 40.0], 0.2 * np.eye(2), r_safe=0.5, beta=chance_margin(0.02))
+    many = ProblemInputs(**{**q.__dict__, "sensing_zones": np.vstack([q.sensing_zones, [far] * 5])})
+    window = _binding_zones(many)
+    assert window.structure().n_sensing_zones == ZONE_BUCKET  # 6 known, 1 near
+    planner = LeaguePlanner(solver="ipopt")
+    every = planner.plan(many.structure(), tuple(range(5)), many)
+    kept = planner.plan(window.structure(), tuple(range(5)), window)
+    np.testing.assert_allclose(kept.controls, every.controls, atol=1e-6)

@@ -85,6 +85,63 @@ class Reduction:
         return solution
 
 
+@dataclass
+class ZoneNeeds:
+    """Which zone rows can bind this step (:func:`zone_needs`), and the teammate distance
+    bounds they were judged with."""
+
+    #: (n, L) and (n, K): robot i may need sensing zone l's row, comm zone k's rows
+    sensing: np.ndarray
+    comm: np.ndarray
+    #: (n, n) lower and upper bounds of the teammates' distance after the step (−∞ on the
+    #: diagonal and for links left out of eq. 7d)
+    near: np.ndarray
+    far: np.ndarray
+
+
+def zone_needs(q: ProblemInputs) -> ZoneNeeds | None:
+    """The zone rows of ``q`` that may bind within the velocity bounds (points 1 and 2 of
+    :func:`reduce`'s proof: every other row holds with a zero slack), or None when that cannot
+    be told (a negative ``δ2``, ``w3`` or ``w4``, or a robot with no link kept)."""
+    n = len(q.positions)
+    zs = q.sensing_zones.reshape(-1, SensingRow.WIDTH)
+    zc = q.comm_zones.reshape(-1, CommRow.WIDTH)
+    w = q.weights
+    if np.any(zc[:, CommRow.DELTA2] < 0) or w[Weight.SENSING_SLACK] < 0 or w[Weight.COMM_SLACK] < 0:
+        return None
+    x = q.positions
+    span = np.maximum(np.abs(q.u_lower), np.abs(q.u_upper))
+    reach = q.dt * np.hypot(span[:, 0], span[:, 1])
+
+    def above(value: np.ndarray) -> np.ndarray:
+        return np.asarray(value > 1e-9 * (1 + np.abs(value)))
+
+    bound_s = keep_out_lower_bound(
+        x, reach, zs[:, SensingRow.GAUSSIAN], zs[:, SensingRow.R_SAFE], zs[:, SensingRow.BETA]
+    )
+    need_s = ~above(bound_s)
+    d = np.hypot(x[:, None, 0] - x[None, :, 0], x[:, None, 1] - x[None, :, 1])
+    far = d + reach[:, None] + reach[None, :]
+    near = d - reach[:, None] - reach[None, :]
+    np.fill_diagonal(far, -np.inf)
+    np.fill_diagonal(near, -np.inf)
+    if q.unlinked is not None and n > 1:
+        # a link the route program leaves out of eq. 7d: its rows are ``h + ξ ≥ 0``, which
+        # every kept row of the robot implies (``δ2 ≥ 0``); a robot with no link kept: full
+        unlinked = np.asarray(q.unlinked) > 0.5
+        np.fill_diagonal(unlinked, True)
+        if unlinked.all(axis=1).any():
+            return None
+        far[unlinked] = -np.inf
+        near[unlinked] = -np.inf
+    pair_top = pair_distance_upper_bound(far.max(axis=1)) if n > 1 else np.zeros(n)
+    bound_c = keep_out_lower_bound(
+        x, reach, zc[:, CommRow.GAUSSIAN], zc[:, CommRow.CLEARANCE], zc[:, CommRow.BETA]
+    )
+    need_c = ~above(bound_c - zc[:, CommRow.DELTA2] * pair_top[:, None])
+    return ZoneNeeds(need_s, need_c, near, far)
+
+
 def reduce(structure: Structure, slots: Slots, q: ProblemInputs) -> Reduction | None:
     """What the reduced problem with ``slots`` keeps of this step's problem, or None when the
     full problem must be solved: a robot needing more zones or teammates than it has slots, or
@@ -119,41 +176,11 @@ def reduce(structure: Structure, slots: Slots, q: ProblemInputs) -> Reduction | 
     """
     s = structure
     n, nl, nk = s.n_robots, s.n_sensing_zones, s.n_comm_zones
-    zs = q.sensing_zones.reshape(nl, SensingRow.WIDTH)
-    zc = q.comm_zones.reshape(nk, CommRow.WIDTH)
-    w = q.weights
-    if np.any(zc[:, CommRow.DELTA2] < 0) or w[Weight.SENSING_SLACK] < 0 or w[Weight.COMM_SLACK] < 0:
+    needs = zone_needs(q)
+    if needs is None:
         return None
-    x = q.positions
-    span = np.maximum(np.abs(q.u_lower), np.abs(q.u_upper))
-    reach = q.dt * np.hypot(span[:, 0], span[:, 1])
-
-    def above(value: np.ndarray) -> np.ndarray:
-        return np.asarray(value > 1e-9 * (1 + np.abs(value)))
-
-    bound_s = keep_out_lower_bound(
-        x, reach, zs[:, SensingRow.GAUSSIAN], zs[:, SensingRow.R_SAFE], zs[:, SensingRow.BETA]
-    )
-    need_s = ~above(bound_s)
-    d = np.hypot(x[:, None, 0] - x[None, :, 0], x[:, None, 1] - x[None, :, 1])
-    far = d + reach[:, None] + reach[None, :]
-    near = d - reach[:, None] - reach[None, :]
-    np.fill_diagonal(far, -np.inf)
-    np.fill_diagonal(near, -np.inf)
-    if q.unlinked is not None and n > 1:
-        # a link the route program leaves out of eq. 7d: its rows are ``h + ξ ≥ 0``, which
-        # every kept row of the robot implies (``δ2 ≥ 0``); a robot with no link kept: full
-        unlinked = np.asarray(q.unlinked) > 0.5
-        np.fill_diagonal(unlinked, True)
-        if unlinked.all(axis=1).any():
-            return None
-        far[unlinked] = -np.inf
-        near[unlinked] = -np.inf
-    pair_top = pair_distance_upper_bound(far.max(axis=1)) if n > 1 else np.zeros(n)
-    bound_c = keep_out_lower_bound(
-        x, reach, zc[:, CommRow.GAUSSIAN], zc[:, CommRow.CLEARANCE], zc[:, CommRow.BETA]
-    )
-    need_c = ~above(bound_c - zc[:, CommRow.DELTA2] * pair_top[:, None])
+    need_s, need_c, near, far = needs.sensing, needs.comm, needs.near, needs.far
+    w = q.weights
     best = near.max(axis=1)
     mates = far * (1 + 1e-9) + 1e-9 >= best[:, None]
     needs_mates = np.asarray(need_c.any(axis=1))

@@ -16,12 +16,13 @@ sweep, repeated ``sweeps`` times), each solving the same league problem over a *
 * the ``targets`` targets nearest to its free robots: a target far from all of them has a
   term they barely change (the information of eq. 2 fades with distance), left out.
 
-Every window has ``size + pinned`` robots and its known zones padded to a multiple of
-:data:`ZONE_BUCKET` per kind (a padding zone lies far away and binds nothing), so one problem
-structure serves every sub-team, every league composition and every number of known zones up
-to the bucket: it is built once (:meth:`SubteamPlanner.structure`, before a run) instead of
-whenever the league or its knowledge changes. A robot's plan starts from its last planned
-velocity.
+Every window has ``size + pinned`` robots and keeps only the known zones whose rows may bind
+one of its robots this step (the others hold with zero slack whatever it decides), padded to a
+multiple of :data:`ZONE_BUCKET` per kind (a padding zone lies far away and binds nothing), so
+one problem structure serves every sub-team, every league composition and any number of known
+zones of which at most a bucket is near a window: it is built once
+(:meth:`SubteamPlanner.structure`, before a run) instead of whenever the league or its
+knowledge changes. A robot's plan starts from its last planned velocity.
 docs/performance.md measures the time and the tracking quality against the joint solve.
 """
 
@@ -45,6 +46,7 @@ from resilient_tracking.planning.layout import (
 )
 from resilient_tracking.planning.pieces import piece_functions
 from resilient_tracking.planning.plan_result import PlanResult
+from resilient_tracking.planning.reduction import zone_needs
 from resilient_tracking.planning.spec import SubteamSpec
 
 #: Known zones per kind in a window's problem are padded up to a multiple of this.
@@ -136,12 +138,7 @@ class SubteamPlanner:
         info = self._information(q)
         gained = q.sensing[:, None, None] * info(q.positions + velocity * q.dt)  # (n, N, 3)
         # what every window shares this step, computed once
-        shared = replace(
-            q,
-            prior_info=_information_entries(q.prior_info),
-            sensing_zones=_padded(q.sensing_zones, _FAR_SENSING),
-            comm_zones=_padded(q.comm_zones, _FAR_COMM),
-        )
+        shared = replace(q, prior_info=_information_entries(q.prior_info))
         robot_gaps = _distances(q.positions, q.positions)
         target_gaps = _distances(q.targets, q.positions)
         results = []
@@ -152,7 +149,9 @@ class SubteamPlanner:
                 robots = np.concatenate([free, pinned])
                 outside = gained[rest].sum(axis=0)  # the others' planned information
                 targets = _nearest(target_gaps[:, free], spec.targets)
-                sub = _window_inputs(shared, robots, len(free), velocity, outside, targets)
+                sub = _binding_zones(
+                    _window_inputs(shared, robots, len(free), velocity, outside, targets)
+                )
                 result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
                 results.append(result)
                 velocity[free] = result.controls[: len(free)]
@@ -241,6 +240,22 @@ def _window_inputs(
         u_upper=upper,
         route=None if q.route is None else q.route[robots],
         unlinked=None if q.unlinked is None else q.unlinked[np.ix_(robots, robots)],
+    )
+
+
+def _binding_zones(sub: ProblemInputs) -> ProblemInputs:
+    """``sub`` with only the zones whose rows may bind one of its robots this step
+    (:func:`~.reduction.zone_needs`: the others hold with zero slack whatever the window
+    decides), padded to the bucket."""
+    sensing, comm = sub.sensing_zones, sub.comm_zones
+    needs = zone_needs(sub)
+    if needs is not None:
+        sensing = sensing[needs.sensing.any(axis=0)]
+        comm = comm[needs.comm.any(axis=0)]
+    return replace(
+        sub,
+        sensing_zones=_padded(sensing, _FAR_SENSING),
+        comm_zones=_padded(comm, _FAR_COMM),
     )
 
 

@@ -48,10 +48,12 @@ __all__ = [
 #: for the chance constraints and the Mahalanobis tests.
 MIN_COVARIANCE_RATIO = 1e-9
 #: Upper bounds on sizes: the league NLP grows with robots × targets × zones, so a team beyond
-#: these is refused up front rather than left to exhaust memory while the problem is built.
+#: these is refused up front rather than left to exhaust memory while the problem is built
+#: (a league of more than 20 robots is planned as sub-teams of bounded size, docs/model.md §5.2;
+#: 64 × 32 runs in about 300 MB).
 MAX_ROBOTS = 64
 MAX_TARGETS = 64
-MAX_ROBOTS_X_TARGETS = 1024
+MAX_ROBOTS_X_TARGETS = 2048
 MAX_ZONES = 32
 MAX_STEPS = 100_000
 MAX_DT = 10.0
