@@ -482,9 +482,9 @@ def test_huge_counts_are_refused_with_the_bound(key, count, message):
 
 def test_many_robots_times_many_targets_is_refused():
     data = copy.deepcopy(BASE_DATA["combined-temp"])
-    data["robots"] = [data["robots"][0]] * 40
+    data["robots"] = [data["robots"][0]] * 64
     data["targets"] = [data["targets"][0]] * 40
-    with pytest.raises(ScenarioError, match=r"robots: 40 robots × 40 targets exceeds"):
+    with pytest.raises(ScenarioError, match=r"robots: 64 robots × 40 targets exceeds"):
         parse_scenario(data)
 
 
