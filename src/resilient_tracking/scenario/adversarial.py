@@ -4,7 +4,7 @@ motion, any target motion, that they follow when they are not reacting."""
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field
 
@@ -19,6 +19,8 @@ class Evasive(MotionSpec):
     """Follows ``base`` until a robot comes within ``radius``, then flees the robots within it
     (the closer, the more), at most ``speed``, with acceleration at most ``max_accel``, inside
     the workspace; steers back onto its base motion once no robot is within ``radius``."""
+
+    reacts: ClassVar[bool] = True
 
     type: Literal["evasive"] = Field(description="Selects this motion.")
     base: TargetMotion = Field(
@@ -67,6 +69,8 @@ class Lure(MotionSpec):
     """Follows ``base``, and from time ``after`` (again every ``period``) leaves it for the
     true centre of the zone called ``zone``, lingers there ``linger`` seconds and steers back
     onto its base motion, at most ``speed`` throughout."""
+
+    reacts: ClassVar[bool] = True
 
     type: Literal["lure"] = Field(description="Selects this motion.")
     base: TargetMotion = Field(

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import math
 from typing import Annotated, Any
 
@@ -82,9 +81,7 @@ def _motion_problems(
 def _zone_motion_problems(motion: MotionSpec, path: str, start: tuple[float, float]) -> list[str]:
     """What is wrong with a zone's motion starting at its prior mean ``start``: one that reacts
     to the world (a zone moves on a script), or a circle that cannot be run."""
-    # the motion registry by name, as the spec union resolves it (scenario never imports world)
-    motions = importlib.import_module("resilient_tracking.world.target_motion").MOTIONS
-    if motions.get(motion.type).reacts:
+    if motion.reacts:
         return [
             f"{path}.type: a zone's motion must not react to the world; choose a scripted "
             f"motion such as constant_velocity, waypoints, circle or ncv (got {motion.type!r})"

@@ -3,7 +3,7 @@ and the robots' sensor and estimator."""
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import (
@@ -81,6 +81,10 @@ class RobotSpec(Strict):
 class MotionSpec(Strict):
     """Base of a target motion's parameters; ``type`` selects the motion by its registered name
     (:mod:`resilient_tracking.world.target_motion`)."""
+
+    #: whether the motion it selects reacts to the world (robots, zones): the spec says so, so
+    #: that a scenario is checked without the world (a zone's motion must not react)
+    reacts: ClassVar[bool] = False
 
     type: str = Field(description="Selects the motion: a registered name or package.module:Class.")
 

@@ -7,7 +7,8 @@ parameters (a subclass of :class:`~resilient_tracking.scenario.MotionSpec`), a c
 ``resilient_tracking.target_motions``; a scenario selects it with
 ``motion: {type: name, ...}`` (or ``type: package.module:Class``).
 
-A motion that reacts to the world sets ``reacts = True``: before every step the world hands it
+A motion that reacts to the world sets ``reacts = True`` (and so does its ``Spec``, so that a
+scenario is checked without the world): before every step the world hands it
 the truth around it, a :class:`Surroundings`, through :meth:`TargetMotion.sense`. Motions that
 do not react are never handed anything.
 """

@@ -53,6 +53,11 @@ class TrueZone:
         self.motion: TargetMotion | None = None
         if spec.motion is not None:
             self.motion = MOTIONS.get(spec.motion.type)(spec.motion, self.mu)
+            if self.motion.reacts:  # a plug-in whose spec did not say so
+                raise ValueError(
+                    f"zones.{zone_id}.motion.type: a zone's motion must not react to the world "
+                    f"(got {spec.motion.type!r})"
+                )
             self._start, self._drawn = self.mu.copy(), self.center.copy()
         #: a moving zone's truth over time: ``(step, mu_x, mu_y, true_x, true_y)`` per step
         self.track: list[tuple[int, float, float, float, float]] = []
