@@ -2,6 +2,7 @@
 
     python -m benchmarks.swarm            # 20×20, 40×20 and 64×32, cold and warm
     python -m benchmarks.swarm --quick    # 40×20 only, 30 steps
+    python -m benchmarks.swarm --cases 40x20 --modes subteams   # a part of the table
 
 Each run is a fresh process (so its memory and cache are its own) running the failure-aware
 team on the case's scenario: first on an empty compiled-code cache (cold: what a new machine
@@ -38,6 +39,8 @@ MODES: dict[str, dict[str, Any]] = {
     "subteams": {},
     "subteams16": {"planner.subteams.above": 16},
 }
+#: the cases, by robots × targets
+CASES = ("20x20", "40x20", "64x32")
 #: how many steps the joint 64×32 team runs (a new 64-robot structure costs minutes)
 JOINT_64_STEPS = 5
 
@@ -115,6 +118,8 @@ def in_child(case: str, mode: str, steps: int | None, cache: str) -> dict[str, A
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="40×20 only, 30 steps")
+    parser.add_argument("--cases", nargs="+", choices=CASES, help="only these cases")
+    parser.add_argument("--modes", nargs="+", choices=("joint", "subteams"), help="only these")
     parser.add_argument("--child", nargs=2, metavar=("CASE", "MODE"), help=argparse.SUPPRESS)
     parser.add_argument("--steps", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -122,10 +127,10 @@ def main(argv: list[str] | None = None) -> int:
         case, mode = args.child
         print(json.dumps(run_case(case, mode, args.steps)))
         return 0
-    cases = ["40x20"] if args.quick else ["20x20", "40x20", "64x32"]
+    cases = args.cases or (["40x20"] if args.quick else list(CASES))
     runs = []
     for case in cases:
-        for mode in ("joint", "subteams"):
+        for mode in args.modes or ("joint", "subteams"):
             steps = 30 if args.quick else None
             if case == "64x32" and mode == "joint":
                 steps = JOINT_64_STEPS
@@ -144,12 +149,18 @@ def main(argv: list[str] | None = None) -> int:
     ]  # fmt: skip
     print(table(rows, header))
     for case in cases:
-        joint = next(r for r in runs if r["case"] == case and r["mode"] == "joint")
-        split = [r for r in runs if r["case"] == case and r["mode"] != "joint"][-1]
+        joint = next((r for r in runs if r["case"] == case and r["mode"] == "joint"), None)
+        splits = [r for r in runs if r["case"] == case and r["mode"] != "joint"]
+        if joint is None or not splits:
+            continue
+        split = splits[-1]
         if joint["steps"] == split["steps"]:
             ratio = split["mean_trace"] / joint["mean_trace"]
             print(f"{case}: sub-team trace / joint trace = {ratio:.3f} (same steps and seed)")
-    save("swarm", {"machine": machine(), "runs": runs})
+    save(
+        "swarm" if args.cases is None and args.modes is None else "swarm_part",
+        {"machine": machine(), "runs": runs},
+    )
     return 0
 
 
