@@ -109,16 +109,14 @@ class SubteamPlanner:
         route: bool,
         standoff: float,
         sensor_model: type[MeasurementModel],
-        n_sensing_zones: int = 0,
-        n_comm_zones: int = 0,
     ) -> Structure:
-        """The problem structure of every window of a team tracking ``n_targets`` with up to
-        this many known zones of each kind (what to build before a run)."""
+        """The problem structure of every window of a team tracking ``n_targets`` (what to
+        build before a run): one bucket of zone rows per kind."""
         return Structure(
             n_robots=self.spec.size + self.spec.pinned,
             n_targets=min(n_targets, self.spec.targets),
-            n_sensing_zones=_bucket(n_sensing_zones),
-            n_comm_zones=_bucket(n_comm_zones),
+            n_sensing_zones=ZONE_BUCKET,
+            n_comm_zones=ZONE_BUCKET,
             route=route,
             standoff=standoff,
             sensor_model=sensor_model,
@@ -141,9 +139,10 @@ class SubteamPlanner:
         shared = replace(q, prior_info=_information_entries(q.prior_info))
         robot_gaps = _distances(q.positions, q.positions)
         target_gaps = _distances(q.targets, q.positions)
+        groups = partition(q.positions, spec.size)
         results = []
         for _ in range(spec.sweeps):
-            for free in partition(q.positions, spec.size):
+            for free in groups:
                 rest = np.setdiff1d(np.arange(n), free)
                 pinned = _farthest(robot_gaps[np.ix_(rest, free)], rest, window - len(free))
                 robots = np.concatenate([free, pinned])
