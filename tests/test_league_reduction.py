@@ -184,6 +184,36 @@ def test_a_robot_needing_more_slots_gets_the_full_problem():
     np.testing.assert_array_equal(sqp["x"], full.solve(q, method="sqp")[0]["x"])
 
 
+def test_a_robot_needing_more_slots_gets_the_next_wider_reduced_problem():
+    """With two sizes of reduced problem, a step the smaller cannot hold is solved on the wider
+    (its own method), which gives the full problem's solution; a step the smaller holds
+    stays on it."""
+    q = scene(9, 3, 4, 2, seed=3)
+    q.sensing_zones[:3, SensingRow.MEAN] = q.positions[4] + np.array(
+        [[0.2, 0.0], [0.0, 0.2], [-0.2, 0.0]]
+    )
+    levels = (Slots(2, 1, 5), Slots(4, 1, 5))
+    problem = LeagueProblem(structure_of(q), options={"slots": levels})
+    assert problem.slot_methods == {levels[0]: "sqp_slots", levels[1]: "sqp_slots1"}
+    reduction = problem.reduction(q)
+    assert reduction is not None and reduction.slots == levels[1]
+    sqp, stats = problem.solve(q, method="sqp")
+    assert stats["success"]
+    assert problem._calls.keys() == {"sqp_slots1"}  # neither the smaller nor the full one
+    full = LeagueProblem(structure_of(q), options={"slots": None})
+    reference, _ = full.solve(q, method="sqp")
+    np.testing.assert_allclose(sqp["x"], reference["x"], atol=1e-9)
+    easy = scene(9, 3, 4, 2, seed=3)
+    assert problem.reduction(easy).slots == levels[0]
+
+
+def test_wider_slots_that_reduce_nothing_are_left_out():
+    """A size capped to the structure's own (nothing to drop) is no reduced problem."""
+    q = scene(5, 3, 2, 1, seed=0)
+    problem = LeagueProblem(structure_of(q), options={"slots": (Slots(1, 1, 2), Slots(2, 1, 4))})
+    assert list(problem.slot_methods) == [Slots(1, 1, 2)]
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not codegen.enabled(), reason="needs a C compiler and RTRACK_CODEGEN on")
 def test_reduced_problem_on_compiled_code_gives_bit_for_bit_the_same_plans(tmp_path, monkeypatch):

@@ -158,3 +158,28 @@ def test_a_robot_wedged_where_two_discs_overlap_is_routed_around_them() -> None:
     assert np.min(np.linalg.norm(routes.corners - waypoint, axis=1)) < 1e-12  # a corner
     route = np.linalg.norm(waypoint - robot[0]) + rows[0, RouteRow.OFFSET] + 0.7  # + reach
     assert route > np.linalg.norm(robot[0] - [3.0, 0.0]) + 1.0  # around the discs, not through
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_blocked_segments_are_those_the_exhaustive_test_finds(seed: int) -> None:
+    """The disc test skips pairs whose bounding boxes cannot meet: its answer must be the one
+    of testing every segment against every disc, including segments grazing a disc."""
+    rng = np.random.default_rng(seed)
+    discs = np.column_stack([rng.uniform(-8, 8, (6, 2)), rng.uniform(0.3, 2.5, 6)])
+    routes = RouteMap(discs, *BOX)
+    starts = rng.uniform(-10, 10, (400, 2))
+    ends = rng.uniform(-10, 10, (400, 2))
+    # segments tangent to a disc (distance exactly the radius) and just inside it
+    row = 0
+    for x, y, r in discs:
+        for inset in (0.0, 2e-6, -2e-6):
+            starts[row], ends[row] = (x - 5, y + r - inset), (x + 5, y + r - inset)
+            row += 1
+    ignore = rng.uniform(size=(400, 6)) < 0.2
+    exhaustive = ~np.any(
+        (segment_distances(starts, ends, discs[:, :2]) < discs[None, :, 2] - 1e-6) & ~ignore,
+        axis=1,
+    )
+    free = routes._free(starts, ends, ignore)
+    assert 0 < free.sum() < len(free)
+    np.testing.assert_array_equal(free, exhaustive)

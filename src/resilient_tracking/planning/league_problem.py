@@ -18,7 +18,7 @@ from resilient_tracking.planning.layout import ParameterLayout, ProblemInputs, S
 from resilient_tracking.planning.library_index import module_digest
 from resilient_tracking.planning.nlp import LeagueNLP
 from resilient_tracking.planning.nlp_cache import shared_nlp
-from resilient_tracking.planning.reduction import Reduction, reduce, reduced_slots
+from resilient_tracking.planning.reduction import Reduction, fill_slots, reduced_slots, zone_needs
 from resilient_tracking.planning.solver_options import (
     AUTO,
     METHODS,
@@ -41,7 +41,8 @@ class LeagueProblem(CompiledProblem):
     The ``"sqp"`` method solves the reduced problem of :meth:`reduction` (only the zones and
     teammates that can bind this step) when there is one, else the full problem; its solution
     is returned in the full problem's layout either way, so warm starts pass between the two
-    and the IPOPT rungs.
+    and the IPOPT rungs. ``options.slots`` may give several sizes of reduced problem, smallest
+    first: the step's problem is solved with the first whose slots hold it.
     """
 
     def __init__(
@@ -56,21 +57,27 @@ class LeagueProblem(CompiledProblem):
         self.structure = structure
         self.margin = float(self.options.margin)
         self.n_constraints = structure.n_constraints
-        #: sizes of the SQP's reduced problem; None: the SQP always solves the full problem
         slots = self.options.slots
         if slots == AUTO:
             slots = SLOTS if structure.n_constraints >= REDUCE_FROM_ROWS else None
-        assert slots is None or isinstance(slots, Slots)
-        self.slots = reduced_slots(structure, slots)
+        assert not isinstance(slots, str), f"slots: unknown {slots!r}"
+        levels = (slots,) if slots is None or isinstance(slots, Slots) else slots
+        capped = (reduced_slots(structure, level) for level in levels)
+        #: sizes of the SQP's reduced problems, smallest first, each solved by its own method
+        #: (``sqp_slots``, then ``sqp_slots1``, ...); none: the SQP always solves the full one
+        self.slot_methods: dict[Slots, str] = {
+            level: "sqp_slots" if k == 0 else f"sqp_slots{k}"
+            for k, level in enumerate(dict.fromkeys(c for c in capped if c is not None))
+        }
+        #: the smallest reduced problem's slots (None: never reduced)
+        self.slots = next(iter(self.slot_methods), None)
         self._nlps: dict[Slots | None, LeagueNLP] = {}
         self._lbg = np.zeros(self.n_constraints)
 
     def prepare(self, methods: tuple[str, ...] = METHODS) -> None:
         """Build the symbolic problems and solvers of ``methods`` now rather than at the first
-        solve (the SQP's reduced problem too, when it has one)."""
-        if "sqp" in methods and self.slots:
-            methods = (*methods, "sqp_slots")
-        for method in methods:
+        solve (the SQP's reduced problems too, when it has them)."""
+        for method in self._with_reduced(methods):
             self._call(method)
 
     def wait_for_compiler(self, methods: tuple[str, ...] = METHODS) -> None:
@@ -80,10 +87,16 @@ class LeagueProblem(CompiledProblem):
         already in the cache): switching mid-episode would restart the solver's state at a
         moment set by the compiler's speed, which would break bit-for-bit reproducibility.
         """
-        if "sqp" in methods and self.slots:
-            methods = (*methods, "sqp_slots")
-        for method in methods:
+        for method in self._with_reduced(methods):
             self._switch_to_compiled(method)
+
+    def _with_reduced(self, methods: tuple[str, ...]) -> tuple[str, ...]:
+        """``methods`` and, with ``"sqp"``, the methods of its reduced problems."""
+        return (*methods, *self.slot_methods.values()) if "sqp" in methods else methods
+
+    def _level(self, method: str) -> Slots | None:
+        """The slots a reduced problem's method solves with (None: not a reduced method)."""
+        return next((s for s, name in self.slot_methods.items() if name == method), None)
 
     def _shared(self, slots: Slots | None) -> LeagueNLP:
         # held here once fetched: the shared cache may forget it while this problem lives
@@ -103,7 +116,8 @@ class LeagueProblem(CompiledProblem):
 
     @property
     def slot_nlp(self) -> LeagueNLP:
-        """The SQP's reduced problem: each robot's comm rows for ``slots`` teammates only."""
+        """The SQP's smallest reduced problem: each robot's comm rows for ``slots`` teammates
+        only."""
         return self._shared(self.slots)
 
     @property
@@ -112,8 +126,9 @@ class LeagueProblem(CompiledProblem):
         return sum(nlp.n_instructions for nlp in self._nlps.values())
 
     def symbolic(self, method: str) -> LeagueNLP:
-        """The reduced problem for ``"sqp_slots"``, else the full problem."""
-        return self.slot_nlp if method == "sqp_slots" else self.nlp
+        """The reduced problem of a ``"sqp_slots…"`` method, else the full problem."""
+        level = self._level(method)
+        return self.nlp if level is None else self._shared(level)
 
     def roles(self, method: str) -> dict[str, ca.Function]:
         """IPOPT's derivatives with the exact Hessian, or the SQP's ``fg``, ``jac_fg`` and its
@@ -136,8 +151,9 @@ class LeagueProblem(CompiledProblem):
         what the functions are made of (the sensor model may be a plug-in: its own source
         counts too), so the library is found without generating code."""
         name = method
-        if method == "sqp_slots" and self.slots:
-            name = "sqp_slots{}s{}c{}m".format(*astuple(self.slots))
+        level = self._level(method)
+        if level is not None:
+            name = "sqp_slots{}s{}c{}m".format(*astuple(level))
         s = self.structure
         sensor = module_digest(s.sensor_model)
         defines = (
@@ -150,7 +166,7 @@ class LeagueProblem(CompiledProblem):
     def _build(
         self, method: str, functions: dict[str, ca.Function], compiled: bool = False
     ) -> ca.Function:
-        if method not in (*METHODS, "sqp_slots"):
+        if method not in (*METHODS, *self.slot_methods.values()):
             raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
         name = f"{self.structure.label}_{method}"
         # f and g symbolic: CasADi derives its own helpers (never called here) from them
@@ -162,7 +178,7 @@ class LeagueProblem(CompiledProblem):
         # made (compiled code may round differently and tip a line-search decision)
         functions = dict(functions)
         fg = functions.pop("fg")
-        if compiled and method != "sqp_slots":
+        if compiled and self._level(method) is None:
             nlp = fg
         return self._nlpsol(name, "sqp", nlp, functions)
 
@@ -182,10 +198,17 @@ class LeagueProblem(CompiledProblem):
         return lower, upper
 
     def reduction(self, q: ProblemInputs) -> Reduction | None:
-        """What the SQP's reduced problem keeps of this step's problem
-        (:func:`~.reduction.reduce`), or None when the full problem must be solved (also when
-        this structure has no reduced problem)."""
-        return None if self.slots is None else reduce(self.structure, self.slots, q)
+        """What the smallest of the SQP's reduced problems that holds this step's problem keeps
+        of it (:func:`~.reduction.reduce`), or None when the full problem must be solved (also
+        when this structure has no reduced problem)."""
+        if not self.slot_methods:
+            return None
+        needs = zone_needs(q)
+        for level in self.slot_methods:
+            reduction = fill_slots(self.structure, level, needs, q.weights)
+            if reduction is not None:
+                return reduction
+        return None
 
     def split(self, decision: np.ndarray) -> np.ndarray:
         """Velocities (n, 2) from a decision vector."""
@@ -210,7 +233,7 @@ class LeagueProblem(CompiledProblem):
             call = self._call(method)
             solution = call(x0, self.pack_params(q), lbx, ubx, lam_x0, lam_g0, self._lbg)
             return solution, call.stats()
-        call = self._call("sqp_slots")
+        call = self._call(self.slot_methods[reduction.slots])
         r = reduction
         used = r.variables >= 0
         # an unused slot's slack is fixed at 0 (measured: cheaper for qpOASES than leaving

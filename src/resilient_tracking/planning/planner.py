@@ -351,9 +351,15 @@ class LeaguePlanner(SolverLadder):
 
 
 def _window_options(options: ProblemOptions, spec: SubteamSpec) -> ProblemOptions:
-    """A window's problem options: the SQP's reduced problem keeps a row for every teammate of
-    the window (its pinned teammates are the far ones, whose rows bind together), so it is
-    solved every step instead of falling back to the full problem."""
+    """A window's problem options: the SQP's reduced problems keep a row for every teammate of
+    the window (its pinned teammates are the far ones, whose rows bind together), and a window
+    where a robot is near two known comm zones (their rows bind sooner with the far teammates'
+    long links) has a reduced problem with two comm slots, so the full problem is rarely
+    solved."""
     if options.slots != AUTO:
         return options
-    return replace(options, slots=replace(SLOTS, mates=spec.size + spec.pinned - 1))
+    mates = spec.size + spec.pinned - 1
+    return replace(
+        options,
+        slots=(replace(SLOTS, mates=mates), replace(SLOTS, comm=2, mates=mates)),
+    )

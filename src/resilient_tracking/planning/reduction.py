@@ -44,6 +44,8 @@ def reduced_slots(structure: Structure, slots: Slots | None = SLOTS) -> Slots | 
 class Reduction:
     """One step's reduced problem (:func:`reduce`)."""
 
+    #: the sizes of the reduced problem it fills
+    slots: Slots
     #: the selection parameters (ssel, csel, msel), flattened column by column
     selection: np.ndarray
     #: each reduced row's row in the full problem, and whether the row is in use
@@ -174,13 +176,19 @@ def reduce(structure: Structure, slots: Slots, q: ProblemInputs) -> Reduction | 
     A slot left unused gets a zero selection column (its slack costs nothing and is fixed
     at 0, its row is relaxed to ``−∞``): it changes nothing.
     """
+    return fill_slots(structure, slots, zone_needs(q), q.weights)
+
+
+def fill_slots(
+    structure: Structure, slots: Slots, needs: ZoneNeeds | None, w: np.ndarray
+) -> Reduction | None:
+    """:func:`reduce` from the step's :func:`zone_needs` and weights ``w``, for callers that
+    try several slot sizes on one step."""
     s = structure
     n, nl, nk = s.n_robots, s.n_sensing_zones, s.n_comm_zones
-    needs = zone_needs(q)
     if needs is None:
         return None
     need_s, need_c, near, far = needs.sensing, needs.comm, needs.near, needs.far
-    w = q.weights
     best = near.max(axis=1)
     mates = far * (1 + 1e-9) + 1e-9 >= best[:, None]
     needs_mates = np.asarray(need_c.any(axis=1))
@@ -231,6 +239,7 @@ def reduce(structure: Structure, slots: Slots, q: ProblemInputs) -> Reduction | 
     dropped_lam_x[full.nu(0, 0) : full.xi(0, 0)] = -w[Weight.SENSING_SLACK]
     dropped_lam_x[full.xi(0, 0) :] = -w[Weight.COMM_SLACK]
     return Reduction(
+        slots=slots,
         selection=np.concatenate([ssel.ravel(), csel.ravel(), msel.ravel()]),
         rows=rows.ravel(),
         active=active.ravel(),

@@ -37,6 +37,17 @@ def segment_distances(starts: np.ndarray, ends: np.ndarray, centers: np.ndarray)
     return np.linalg.norm(centers[None, :, :] - closest, axis=2)
 
 
+def pair_distances(starts: np.ndarray, ends: np.ndarray, centers: np.ndarray) -> np.ndarray:
+    """Distance from ``centers[p]`` to the segment ``starts[p] → ends[p]``: shape (P,), the
+    same numbers as :func:`segment_distances` gives for those pairs."""
+    d = ends - starts
+    rel = centers - starts
+    length2 = np.maximum(np.einsum("ei,ei->e", d, d), 1e-300)
+    t = np.clip(np.einsum("ei,ei->e", rel, d) / length2, 0.0, 1.0)
+    closest = starts + t[:, None] * d
+    return np.linalg.norm(centers - closest, axis=1)
+
+
 class RouteMap:
     """Keep-out discs ``(x, y, radius)`` in a workspace box, and routes around them."""
 
@@ -81,8 +92,21 @@ class RouteMap:
         """Segments ``a[e] → b[e]`` that cross no disc, skipping ``ignore[e, k]`` pairs."""
         if not len(self.discs):
             return np.ones(len(a), dtype=bool)
-        near = segment_distances(a, b, self.discs[:, :2]) < self.discs[None, :, 2] - TOUCH
-        return ~np.any(near & ~ignore, axis=1)
+        centers, radii = self.discs[:, :2], self.discs[:, 2]
+        # only a disc whose centre lies in the segment's bounding box grown by the radius can
+        # block it (grown by a little less than the radius: a disc outside is at least
+        # ``radius - TOUCH / 2`` away, beyond rounding of the exact test below)
+        grow = radii - TOUCH / 2
+        low, high = np.minimum(a, b), np.maximum(a, b)
+        candidate = ~ignore
+        for axis in (0, 1):
+            candidate &= low[:, None, axis] < centers[None, :, axis] + grow
+            candidate &= high[:, None, axis] > centers[None, :, axis] - grow
+        e, k = np.nonzero(candidate)
+        near = pair_distances(a[e], b[e], centers[k]) < radii[k] - TOUCH
+        free = np.ones(len(a), dtype=bool)
+        free[e[near]] = False
+        return free
 
     def _sight(self, points: np.ndarray) -> np.ndarray:
         """(P, C): corner c is in sight of point p; a disc that holds p does not block it."""
@@ -103,6 +127,11 @@ class RouteMap:
         a = np.repeat(starts, n_g, axis=0)
         b = np.tile(goals, (n_s, 1))
         return self._free(a, b, ignore).reshape(n_s, n_g)
+
+    def _direct_pairs(self, starts: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        """(S,): the straight segment from start s to goal s is free."""
+        ignore = self._inside(starts) | self._inside(goals)
+        return self._free(starts, goals, ignore)
 
     def outside(self, points: np.ndarray) -> np.ndarray:
         """``points`` (P, 2) pushed radially out of every disc that holds them (a few passes),
@@ -146,8 +175,15 @@ class RouteMap:
         direct = self._direct(starts, goals)
         if direct.all() or not len(self.corners):
             return np.where(direct, straight, np.inf)
-        via = np.min(self._first_legs(starts)[:, None, :] + self._to_goals(goals)[None], axis=2)
-        return np.where(direct, straight, via)
+        # around the discs only from the starts, and to the goals, of a blocked pair
+        rows, cols = np.flatnonzero(~direct.all(axis=1)), np.flatnonzero(~direct.all(axis=0))
+        legs, rest = self._first_legs(starts[rows]), self._to_goals(goals[cols])
+        out = np.where(direct, straight, np.inf)
+        via = np.min(legs[:, None, :] + rest[None], axis=2)
+        out[np.ix_(rows, cols)] = np.where(
+            direct[np.ix_(rows, cols)], straight[np.ix_(rows, cols)], via
+        )
+        return out
 
     def routes(self, starts: np.ndarray, goals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For each pair ``starts[i] → goals[i]``: the next waypoint (S, 2) and the route
@@ -158,16 +194,16 @@ class RouteMap:
         waypoints, remaining = goals.copy(), np.zeros(len(goals))
         if not len(self.corners) or not len(goals):
             return waypoints, remaining
-        direct = np.diagonal(self._direct(starts, goals)).copy()
-        if direct.all():
+        blocked = np.flatnonzero(~self._direct_pairs(starts, goals))
+        if not len(blocked):
             return waypoints, remaining
-        rest = self._to_goals(goals)  # (S, C): corner to the pair's goal
-        total = self._first_legs(starts) + rest
+        rest = self._to_goals(goals[blocked])  # (B, C): corner to the pair's goal
+        total = self._first_legs(starts[blocked]) + rest
         best = np.argmin(total, axis=1)
-        rows = np.arange(len(starts))
-        found = ~direct & np.isfinite(total[rows, best])
-        waypoints[found] = self.corners[best[found]]
-        remaining[found] = rest[rows, best][found]
+        rows = np.arange(len(blocked))
+        found = np.isfinite(total[rows, best])
+        waypoints[blocked[found]] = self.corners[best[found]]
+        remaining[blocked[found]] = rest[rows, best][found]
         return waypoints, remaining
 
 

@@ -69,7 +69,8 @@ class ProblemOptions:
     ``ipopt`` and ``sqp`` are CasADi option dicts merged over ``IPOPT_OPTIONS`` and
     ``SQP_OPTIONS``; ``qpsol`` is the SQP's QP solver plugin, whose options (merged over
     ``QPOASES_OPTIONS`` for qpOASES) are ``qp_options``, given in a dict under the plugin's
-    own name; ``slots`` the :class:`Slots` of the SQP's reduced problem (None: never reduce);
+    own name; ``slots`` the :class:`Slots` of the SQP's reduced problem, or a tuple of them
+    smallest first (each step uses the first that holds it; None: never reduce);
     ``sqp_hessian`` a Hessian of :class:`~resilient_tracking.planning.nlp.LeagueNLP` without
     ``hess_`` (``"clip"`` or ``"exact"``); ``margin`` the SQP's eigenvalue floor; ``codegen``
     False never uses compiled code.
@@ -79,7 +80,7 @@ class ProblemOptions:
     sqp: dict[str, Any] = field(default_factory=dict)
     qpsol: str = "qpoases"
     qp_options: dict[str, Any] = field(default_factory=dict)
-    slots: Slots | None | str = AUTO
+    slots: Slots | tuple[Slots, ...] | None | str = AUTO
     sqp_hessian: str = "clip"
     margin: float = SQP_MARGIN
     codegen: bool = True
