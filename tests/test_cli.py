@@ -99,3 +99,10 @@ def test_library_warnings_are_shown_only_with_verbose():
     assert quiet.returncode == loud.returncode == 0, quiet.stderr + loud.stderr
     assert "library noise" not in quiet.stderr + quiet.stdout
     assert "library noise" in loud.stderr
+
+
+@pytest.mark.parametrize("share", ["1.5", "-0.1", "nan"])
+def test_node_plan_budget_outside_its_range_is_an_error_naming_it(share, capsys):
+    pytest.importorskip("cyclonedds")
+    assert main(["node", str(SCENARIOS / "sensing-temp.yaml"), "--plan-budget", share]) != 0
+    assert "--plan-budget: must be between 0 and 1" in capsys.readouterr().err

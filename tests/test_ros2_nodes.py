@@ -257,6 +257,17 @@ def test_a_free_running_node_builds_in_the_background_and_warm_up_fills_the_cach
     assert not TrackerNode(scenario, 1, "failure_aware", locked, initial).planner.background_builds
 
 
+def test_a_free_running_swarm_node_plans_its_sub_teams_within_a_budget(domain):
+    scenario = shipped("swarm-40x20").with_overrides(steps=5)
+    free = NodeSettings.for_scenario(scenario, domain_id=domain)
+    initial, _ = start_truth(scenario, 1)
+    node = TrackerNode(scenario, 1, "failure_aware", free, initial)
+    assert node.planner is not None
+    assert node.planner.budget_ms == pytest.approx(1e3 * free.plan_budget * scenario.dt)
+    locked = dataclasses.replace(free, lockstep=True)
+    assert TrackerNode(scenario, 1, "failure_aware", locked, initial).planner.budget_ms is None
+
+
 def test_a_background_writer_writes_the_newest_message_and_drops_stale_ones():
     from resilient_tracking.ros2.transport import BackgroundWriter
 

@@ -204,3 +204,37 @@ def test_a_window_keeps_only_the_zones_that_can_bind_it():
     every = planner.plan(many.structure(), tuple(range(5)), many)
     kept = planner.plan(window.structure(), tuple(range(5)), window)
     np.testing.assert_allclose(kept.controls, every.controls, atol=1e-6)
+
+
+def test_over_its_budget_a_league_holds_the_sub_teams_not_yet_planned():
+    """With no time to spare only the first sub-team is planned: the others hold position (a
+    zero step, inside their bounds) and are named in the result; the next step plans them
+    first. Without a budget every sub-team is planned."""
+    planner = LeaguePlanner(subteams=SMALL)
+    planner.prepare_team(12, 6, SENSOR)
+    q, members = big_league(), tuple(range(100, 112))
+    free = planner.plan(q.structure(), members, q)
+    assert free.success and not free.held
+    planner.budget_ms = 0.0
+    assert planner.subteams is not None and planner.subteams.budget_ms == 0.0
+    first = planner.plan(q.structure(), members, q)
+    assert first.success and len(first.held) == 8  # 3 sub-teams of 4: two held
+    held = [members.index(robot) for robot in first.held]
+    np.testing.assert_array_equal(first.controls[held], 0.0)
+    moving = np.setdiff1d(np.arange(12), held)
+    assert np.abs(first.controls[moving]).max() > 0
+    second = planner.plan(q.structure(), members, q)
+    assert len(second.held) == 8 and not set(second.held) >= set(first.held)
+    assert set(first.held) - set(second.held)  # one held sub-team went first
+
+
+def test_robots_held_over_the_budget_are_events():
+    from resilient_tracking.planning.plan_result import OVER_BUDGET, PlanResult
+    from resilient_tracking.policies.base import Decision
+    from resilient_tracking.policies.planning_helpers import PlanningPolicy
+
+    result = PlanResult(np.zeros((3, 2)), "Solve_Succeeded", True, 2, 1.0, held=(7, 9))
+    decision = Decision(controls=np.zeros((3, 2)), modes=["league"] * 3)
+    PlanningPolicy.settle(None, lambda: result, [5, 7, 9], big_league(n=3), 4, decision)  # type: ignore[arg-type]
+    budget = [e for e in decision.events if e.fallback == "budget"]
+    assert [(e.robot, e.status) for e in budget] == [(7, OVER_BUDGET), (9, OVER_BUDGET)]

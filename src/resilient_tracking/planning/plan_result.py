@@ -6,6 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+#: The status of a robot held because its sub-team's plan ran out of time.
+OVER_BUDGET = "over the planning budget"
+
 
 @dataclass(frozen=True)
 class PlanResult:
@@ -21,3 +24,6 @@ class PlanResult:
     rung: str = ""
     #: (rung, return status) of every attempt, in order
     attempts: tuple[tuple[str, str], ...] = field(default_factory=tuple)
+    #: robots that hold position because planning ran out of its time budget (sub-teams
+    #: running free on robots; :mod:`~resilient_tracking.planning.subteams`)
+    held: tuple[int, ...] = ()

@@ -343,6 +343,17 @@ class LeaguePlanner(SolverLadder):
         if windows is not None:
             windows.background_builds = value
 
+    @property
+    def budget_ms(self) -> float | None:
+        """Planning time (ms) of a league planned as sub-teams after which its sub-teams not
+        yet planned hold position (running free on robots; None: no budget)."""
+        return None if self.subteams is None else self.subteams.budget_ms
+
+    @budget_ms.setter
+    def budget_ms(self, value: float | None) -> None:
+        if self.subteams is not None:
+            self.subteams.budget_ms = value
+
     def close(self) -> None:
         """Stop background building, the sub-team windows' too."""
         super().close()

@@ -24,6 +24,12 @@ zones of which at most a bucket is near a window: it is built once
 (:meth:`SubteamPlanner.structure`, before a run) instead of whenever the league or its
 knowledge changes. A robot's plan starts from its last planned velocity.
 docs/performance.md measures the time and the tracking quality against the joint solve.
+
+Running free on robots, a planning *budget* (:attr:`SubteamPlanner.budget_ms`) bounds a
+step's planning time: once the windows planned so far, plus the longest of them again, would
+pass it, the sub-teams not yet planned hold position this step (the ladder's safe action)
+and are planned first the next step. Simulated runs never set it (their plans must not
+depend on the machine's speed).
 """
 
 from __future__ import annotations
@@ -89,11 +95,16 @@ class SubteamPlanner:
     #: the team's sensor, whose NumPy information model stands in for the NLP's (None: the
     #: NLP's own piece is evaluated)
     sensor: MeasurementModel | None = None
+    #: planning time (ms) of a league after which its sub-teams not yet planned hold position
+    #: (module docstring); None: every sub-team is planned
+    budget_ms: float | None = None
 
     def __post_init__(self) -> None:
         #: each robot's last planned velocity: where its next plan starts
         self._last: dict[int, np.ndarray] = {}
         self._pieces: dict[tuple[type, float], ca.Function] = {}
+        #: robots that held for the budget last step: their sub-teams are planned first
+        self._held: set[int] = set()
 
     def applies(self, structure: Structure) -> bool:
         """Whether a league of this structure is planned as sub-teams: when it has more than
@@ -140,9 +151,17 @@ class SubteamPlanner:
         robot_gaps = _distances(q.positions, q.positions)
         target_gaps = _distances(q.targets, q.positions)
         groups = partition(q.positions, spec.size)
-        results = []
+        if self.budget_ms is not None:
+            groups.sort(key=lambda g: -sum(members[i] in self._held for i in g))
+        results: list[PlanResult] = []
+        planned: set[int] = set()
+        longest = 0.0
         for _ in range(spec.sweeps):
-            for free in groups:
+            for g, free in enumerate(groups):
+                elapsed = (time.perf_counter() - started) * 1e3
+                if results and self._over_budget(elapsed + longest):
+                    continue
+                window_started = time.perf_counter()
                 rest = np.setdiff1d(np.arange(n), free)
                 pinned = _farthest(robot_gaps[np.ix_(rest, free)], rest, window - len(free))
                 robots = np.concatenate([free, pinned])
@@ -153,13 +172,23 @@ class SubteamPlanner:
                 )
                 result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
                 results.append(result)
+                planned.add(g)
+                longest = max(longest, (time.perf_counter() - window_started) * 1e3)
                 velocity[free] = result.controls[: len(free)]
                 gained[free] = q.sensing[free, None, None] * info(
                     q.positions[free] + velocity[free] * q.dt
                 )
+        held = np.array([i for g, free in enumerate(groups) if g not in planned for i in free])
+        if len(held):
+            velocity[held] = np.clip(0.0, q.u_lower[held], q.u_upper[held])
+        self._held = {members[i] for i in held}
         for robot, v in zip(members, velocity, strict=True):
             self._last[robot] = v.copy()
-        return _combined(results, velocity, (time.perf_counter() - started) * 1e3)
+        combined = _combined(results, velocity, (time.perf_counter() - started) * 1e3)
+        return replace(combined, held=tuple(sorted(self._held)))
+
+    def _over_budget(self, projected_ms: float) -> bool:
+        return self.budget_ms is not None and projected_ms > self.budget_ms
 
     def _information(self, q: ProblemInputs) -> Callable[[np.ndarray], np.ndarray]:
         """``positions (n, 2) → (n, N, 3)``: each robot's planning information about each

@@ -23,6 +23,7 @@ from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.goals import keep_out_discs, route_rows
 from resilient_tracking.planning.layout import ProblemInputs, Weight, comm_table, sensing_table
+from resilient_tracking.planning.plan_result import OVER_BUDGET
 from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
 from resilient_tracking.planning.route import RouteMaps
 from resilient_tracking.planning.safe_action import safe_action
@@ -158,6 +159,8 @@ class PlanningPolicy(Policy):
                 decision.events.append(
                     Event.solver_fallback(step, i, result.fallback, result.status)
                 )
+        for i in result.held if result.success else ():
+            decision.events.append(Event.solver_fallback(step, i, "budget", OVER_BUDGET))
         decision.plans.append(result)
         return controls
 

@@ -40,6 +40,9 @@ class NodeSettings:
     give_up: float = 30.0
     #: lock-step: how long to wait for the other node to appear (s)
     startup_timeout: float = 60.0
+    #: running free: the share of the control period a league planned as sub-teams may plan
+    #: for; its sub-teams not planned by then hold position that tick (None: no limit)
+    plan_budget: float | None = 0.3
 
     @classmethod
     def for_scenario(

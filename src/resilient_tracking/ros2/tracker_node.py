@@ -125,10 +125,13 @@ class TrackerNode:
         self.dt = scenario.dt
         self.team = build_team(scenario, policy, seed, np.asarray(initial_targets, dtype=float))
         #: the policy's planner; running free, it builds new league structures in the
-        #: background (the robots take the safe action meanwhile) rather than miss periods
+        #: background (the robots take the safe action meanwhile) and stops planning sub-teams
+        #: at ``plan_budget`` of the period (the rest hold), rather than miss periods
         self.planner = getattr(self.team.policy, "planner", None)
         if self.planner is not None and not settings.lockstep:
             self.planner.background_builds = True
+            if settings.plan_budget is not None and hasattr(self.planner, "budget_ms"):
+                self.planner.budget_ms = 1e3 * settings.plan_budget * self.dt
         n_robots, n_targets, steps = len(scenario.robots), len(scenario.targets), scenario.steps
         self.team_rows = TeamRecorder(n_robots, n_targets, steps)
         # the targets' poses and the zones are recorded for plots only; the team never sees them
