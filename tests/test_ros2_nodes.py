@@ -257,15 +257,30 @@ def test_a_free_running_node_builds_in_the_background_and_warm_up_fills_the_cach
     assert not TrackerNode(scenario, 1, "failure_aware", locked, initial).planner.background_builds
 
 
-def test_a_free_running_swarm_node_plans_its_sub_teams_within_a_budget(domain):
+def test_a_free_running_swarm_node_plans_its_sub_teams_by_a_deadline(domain, monkeypatch):
+    """Each tick's team step runs with the planner's deadline at the budget's share of the
+    period after the tick started; a lock-step node has none."""
+    from resilient_tracking.ros2 import tracker_node
+
     scenario = shipped("swarm-40x20").with_overrides(steps=5)
     free = NodeSettings.for_scenario(scenario, domain_id=domain)
     initial, _ = start_truth(scenario, 1)
     node = TrackerNode(scenario, 1, "failure_aware", free, initial)
-    assert node.planner is not None
-    assert node.planner.budget_ms == pytest.approx(1e3 * free.plan_budget * scenario.dt)
+    assert node.plan_budget == pytest.approx(free.plan_budget * scenario.dt)
+    seen = []
+
+    def step(obs):
+        seen.append(node.planner.deadline)
+        raise RuntimeError("stop here")
+
+    stub = dataclasses.make_dataclass("Obs", [("step", int)])(3)
+    monkeypatch.setattr(tracker_node, "observation_from_msg", lambda *a: stub)
+    monkeypatch.setattr(node.team, "step", step)
+    node._tick_started = 100.0
+    assert not node._step(msgs.TeamObservation(), np.zeros((40, 2)), np.zeros((20, 2)))
+    assert seen == [pytest.approx(100.0 + free.plan_budget * scenario.dt)]
     locked = dataclasses.replace(free, lockstep=True)
-    assert TrackerNode(scenario, 1, "failure_aware", locked, initial).planner.budget_ms is None
+    assert TrackerNode(scenario, 1, "failure_aware", locked, initial).plan_budget is None
 
 
 def test_a_background_writer_writes_the_newest_message_and_drops_stale_ones():

@@ -206,7 +206,7 @@ def test_a_window_keeps_only_the_zones_that_can_bind_it():
     np.testing.assert_allclose(kept.controls, every.controls, atol=1e-6)
 
 
-def test_over_its_budget_a_league_holds_the_sub_teams_not_yet_planned():
+def test_past_its_deadline_a_league_holds_the_sub_teams_not_yet_planned():
     """With no time to spare only the first sub-team is planned: the others hold position (a
     zero step, inside their bounds) and are named in the result; the next step plans them
     first. Without a budget every sub-team is planned."""
@@ -215,8 +215,8 @@ def test_over_its_budget_a_league_holds_the_sub_teams_not_yet_planned():
     q, members = big_league(), tuple(range(100, 112))
     free = planner.plan(q.structure(), members, q)
     assert free.success and not free.held
-    planner.budget_ms = 0.0
-    assert planner.subteams is not None and planner.subteams.budget_ms == 0.0
+    planner.deadline = 0.0  # long past
+    assert planner.subteams is not None and planner.subteams.deadline == 0.0
     first = planner.plan(q.structure(), members, q)
     assert first.success and len(first.held) == 8  # 3 sub-teams of 4: two held
     held = [members.index(robot) for robot in first.held]

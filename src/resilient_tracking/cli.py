@@ -637,10 +637,10 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
             p.add_argument(
                 "--plan-budget",
                 type=float,
-                default=0.3,
+                default=0.4,
                 metavar="SHARE",
-                help="running free: share of the control period sub-teams may plan for; the "
-                "rest hold that tick (default 0.3; 0: no limit)",
+                help="running free: share of the control period into a tick by which sub-teams "
+                "are planned; the rest hold that tick (default 0.4; 0: no limit)",
             )
         else:
             p.add_argument("--mode", choices=("sim", "mocap"), default="sim")

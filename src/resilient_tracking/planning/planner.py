@@ -344,15 +344,15 @@ class LeaguePlanner(SolverLadder):
             windows.background_builds = value
 
     @property
-    def budget_ms(self) -> float | None:
-        """Planning time (ms) of a league planned as sub-teams after which its sub-teams not
-        yet planned hold position (running free on robots; None: no budget)."""
-        return None if self.subteams is None else self.subteams.budget_ms
+    def deadline(self) -> float | None:
+        """When (``time.perf_counter()``) a league planned as sub-teams must be planned by: its
+        sub-teams not yet planned then hold position (running free on robots; None: none)."""
+        return None if self.subteams is None else self.subteams.deadline
 
-    @budget_ms.setter
-    def budget_ms(self, value: float | None) -> None:
+    @deadline.setter
+    def deadline(self, value: float | None) -> None:
         if self.subteams is not None:
-            self.subteams.budget_ms = value
+            self.subteams.deadline = value
 
     def close(self) -> None:
         """Stop background building, the sub-team windows' too."""

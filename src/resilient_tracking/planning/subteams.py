@@ -25,11 +25,11 @@ zones of which at most a bucket is near a window: it is built once
 knowledge changes. A robot's plan starts from its last planned velocity.
 docs/performance.md measures the time and the tracking quality against the joint solve.
 
-Running free on robots, a planning *budget* (:attr:`SubteamPlanner.budget_ms`) bounds a
-step's planning time: once the windows planned so far, plus the longest of them again, would
-pass it, the sub-teams not yet planned hold position this step (the ladder's safe action)
-and are planned first the next step. Simulated runs never set it (their plans must not
-depend on the machine's speed).
+Running free on robots, a *deadline* (:attr:`SubteamPlanner.deadline`) bounds a step's
+planning: once the longest window of the step so far, started now, would end after it, the
+sub-teams not yet planned hold position this step (the ladder's safe action) and are planned
+first the next step. Simulated runs never set it (their plans must not depend on the
+machine's speed).
 """
 
 from __future__ import annotations
@@ -95,15 +95,15 @@ class SubteamPlanner:
     #: the team's sensor, whose NumPy information model stands in for the NLP's (None: the
     #: NLP's own piece is evaluated)
     sensor: MeasurementModel | None = None
-    #: planning time (ms) of a league after which its sub-teams not yet planned hold position
-    #: (module docstring); None: every sub-team is planned
-    budget_ms: float | None = None
+    #: when (``time.perf_counter()``) this step's planning must end: the sub-teams not yet
+    #: planned by then hold position (module docstring); None: every sub-team is planned
+    deadline: float | None = None
 
     def __post_init__(self) -> None:
         #: each robot's last planned velocity: where its next plan starts
         self._last: dict[int, np.ndarray] = {}
         self._pieces: dict[tuple[type, float], ca.Function] = {}
-        #: robots that held for the budget last step: their sub-teams are planned first
+        #: robots that held for the deadline last step: their sub-teams are planned first
         self._held: set[int] = set()
 
     def applies(self, structure: Structure) -> bool:
@@ -151,15 +151,14 @@ class SubteamPlanner:
         robot_gaps = _distances(q.positions, q.positions)
         target_gaps = _distances(q.targets, q.positions)
         groups = partition(q.positions, spec.size)
-        if self.budget_ms is not None:
+        if self.deadline is not None:
             groups.sort(key=lambda g: -sum(members[i] in self._held for i in g))
         results: list[PlanResult] = []
         planned: set[int] = set()
         longest = 0.0
         for _ in range(spec.sweeps):
             for g, free in enumerate(groups):
-                elapsed = (time.perf_counter() - started) * 1e3
-                if results and self._over_budget(elapsed + longest):
+                if results and self._late(time.perf_counter() + longest):
                     continue
                 window_started = time.perf_counter()
                 rest = np.setdiff1d(np.arange(n), free)
@@ -173,7 +172,7 @@ class SubteamPlanner:
                 result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
                 results.append(result)
                 planned.add(g)
-                longest = max(longest, (time.perf_counter() - window_started) * 1e3)
+                longest = max(longest, time.perf_counter() - window_started)
                 velocity[free] = result.controls[: len(free)]
                 gained[free] = q.sensing[free, None, None] * info(
                     q.positions[free] + velocity[free] * q.dt
@@ -187,8 +186,8 @@ class SubteamPlanner:
         combined = _combined(results, velocity, (time.perf_counter() - started) * 1e3)
         return replace(combined, held=tuple(sorted(self._held)))
 
-    def _over_budget(self, projected_ms: float) -> bool:
-        return self.budget_ms is not None and projected_ms > self.budget_ms
+    def _late(self, end: float) -> bool:
+        return self.deadline is not None and end > self.deadline
 
     def _information(self, q: ProblemInputs) -> Callable[[np.ndarray], np.ndarray]:
         """``positions (n, 2) → (n, N, 3)``: each robot's planning information about each

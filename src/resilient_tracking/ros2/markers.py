@@ -41,7 +41,7 @@ def ellipse_points(mean: np.ndarray, cov: np.ndarray, n_std: float = 2.0) -> np.
 
 
 def _outline(points: np.ndarray, z: float) -> list[msgs.Point]:
-    return [msgs.Point(float(x), float(y), z) for x, y in points]
+    return [msgs.Point(x, y, z) for x, y in np.asarray(points, dtype=float).tolist()]
 
 
 @dataclass(frozen=True)
@@ -91,11 +91,11 @@ def markers_of(view: BeliefView, header: msgs.Header, altitude: float) -> msgs.M
             msgs.Marker(header=header, ns=ns, id=len(markers), type=kind, action=msgs.ADD, **fields)  # type: ignore[arg-type]
         )
 
-    for mean, cov in zip(view.means, view.covs, strict=True):
+    for mean, cov in zip(view.means.tolist(), view.covs, strict=True):
         add(
             "targets",
             msgs.SPHERE,
-            pose=msgs.Pose(position=msgs.Point(float(mean[0]), float(mean[1]), 0.0)),
+            pose=msgs.Pose(position=msgs.Point(mean[0], mean[1], 0.0)),
             scale=msgs.Vector3(0.1, 0.1, 0.1),
             color=_COLORS["targets"],
         )
@@ -117,11 +117,11 @@ def markers_of(view: BeliefView, header: msgs.Header, altitude: float) -> msgs.M
             color=_COLORS[zone.kind],
             text=zone.key,
         )
-    for robot, (xy, mode) in enumerate(zip(view.positions, view.modes, strict=True)):
+    for robot, (xy, mode) in enumerate(zip(view.positions.tolist(), view.modes, strict=True)):
         add(
             "robots",
             msgs.TEXT_VIEW_FACING,
-            pose=msgs.Pose(position=msgs.Point(float(xy[0]), float(xy[1]), altitude + 0.2)),
+            pose=msgs.Pose(position=msgs.Point(xy[0], xy[1], altitude + 0.2)),
             scale=msgs.Vector3(0.0, 0.0, 0.15),
             color=_COLORS["robots"],
             text=f"{robot}: {mode}",

@@ -126,17 +126,24 @@ class TrackerNode:
         self.team = build_team(scenario, policy, seed, np.asarray(initial_targets, dtype=float))
         #: the policy's planner; running free, it builds new league structures in the
         #: background (the robots take the safe action meanwhile) and stops planning sub-teams
-        #: at ``plan_budget`` of the period (the rest hold), rather than miss periods
+        #: at ``plan_budget`` of the period into a tick (the rest hold), rather than miss periods
         self.planner = getattr(self.team.policy, "planner", None)
         if self.planner is not None and not settings.lockstep:
             self.planner.background_builds = True
-            if settings.plan_budget is not None and hasattr(self.planner, "budget_ms"):
-                self.planner.budget_ms = 1e3 * settings.plan_budget * self.dt
         n_robots, n_targets, steps = len(scenario.robots), len(scenario.targets), scenario.steps
         self.team_rows = TeamRecorder(n_robots, n_targets, steps)
         # the targets' poses and the zones are recorded for plots only; the team never sees them
         self.truth_rows = TruthRecorder(n_targets, steps, zones)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
+        #: running free: how long into a tick (s) sub-teams may plan (None: no limit)
+        self.plan_budget = (
+            None
+            if settings.lockstep
+            or settings.plan_budget is None
+            or not hasattr(self.planner, "deadline")
+            else settings.plan_budget * self.dt
+        )
+        self._tick_started = time.perf_counter()
         self.steps_done = 0
         self.holds = 0
         self.dropped = 0
@@ -237,6 +244,7 @@ class TrackerNode:
                 last_hold = now
 
     def _drain(self, now: float) -> None:
+        self._tick_started = time.perf_counter()
         for body, reader in self._pose_readers:
             for msg in take(reader):
                 self._record(f"/{body.name}/pose", msg)
@@ -286,6 +294,8 @@ class TrackerNode:
         except MessageError as err:
             self._drop(err)
             return False
+        if self.plan_budget is not None and self.planner is not None:
+            self.planner.deadline = self._tick_started + self.plan_budget
         try:
             out = self.team.step(obs)
         except Exception as err:  # a planner that fails must not stop the robots' safety
