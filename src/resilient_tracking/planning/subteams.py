@@ -161,7 +161,9 @@ class SubteamPlanner:
                 if results and self._late(time.perf_counter() + longest):
                     continue
                 window_started = time.perf_counter()
-                rest = np.setdiff1d(np.arange(n), free)
+                outside_mask = np.ones(n, dtype=bool)
+                outside_mask[free] = False
+                rest = np.flatnonzero(outside_mask)
                 pinned = _farthest(robot_gaps[np.ix_(rest, free)], rest, window - len(free))
                 robots = np.concatenate([free, pinned])
                 outside = gained[rest].sum(axis=0)  # the others' planned information
