@@ -43,7 +43,7 @@ class NodeSettings:
     #: running free: the share of the control period, from an observation's arrival, by which
     #: a league planned as sub-teams must be planned; its sub-teams not planned by then hold
     #: position that tick (None: no limit)
-    plan_budget: float | None = 0.4
+    plan_budget: float | None = 0.35
 
     @classmethod
     def for_scenario(
