@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: The status of a robot held because its sub-team's plan ran out of time.
+#: The status of a robot left unplanned because its sub-team's plan ran out of time.
 OVER_BUDGET = "over the planning budget"
 
 
@@ -24,6 +24,7 @@ class PlanResult:
     rung: str = ""
     #: (rung, return status) of every attempt, in order
     attempts: tuple[tuple[str, str], ...] = field(default_factory=tuple)
-    #: robots that hold position because planning ran out of its time budget (sub-teams
-    #: running free on robots; :mod:`~resilient_tracking.planning.subteams`)
+    #: robots left unplanned this step because planning ran out of its time (sub-teams running
+    #: free on robots; they keep their last velocity or hold,
+    #: :mod:`~resilient_tracking.planning.subteams`)
     held: tuple[int, ...] = ()

@@ -27,9 +27,10 @@ docs/performance.md measures the time and the tracking quality against the joint
 
 Running free on robots, a *deadline* (:attr:`SubteamPlanner.deadline`) bounds a step's
 planning: once the longest window of the step so far, started now, would end after it, the
-sub-teams not yet planned hold position this step (the ladder's safe action) and are planned
-first the next step. Simulated runs never set it (their plans must not depend on the
-machine's speed).
+sub-teams not yet planned go unplanned this step and are planned first the next step. Their
+robots keep their last planned velocity where no known zone's row can bind within one step
+(the rows hold whatever they do), and hold position (the ladder's safe action) otherwise.
+Simulated runs never set it (their plans must not depend on the machine's speed).
 """
 
 from __future__ import annotations
@@ -96,7 +97,7 @@ class SubteamPlanner:
     #: NLP's own piece is evaluated)
     sensor: MeasurementModel | None = None
     #: when (``time.perf_counter()``) this step's planning must end: the sub-teams not yet
-    #: planned by then hold position (module docstring); None: every sub-team is planned
+    #: planned by then go unplanned (module docstring); None: every sub-team is planned
     deadline: float | None = None
 
     def __post_init__(self) -> None:
@@ -179,9 +180,12 @@ class SubteamPlanner:
                 gained[free] = q.sensing[free, None, None] * info(
                     q.positions[free] + velocity[free] * q.dt
                 )
-        held = np.array([i for g, free in enumerate(groups) if g not in planned for i in free])
+        held = np.array(
+            [i for g, free in enumerate(groups) if g not in planned for i in free], dtype=int
+        )
         if len(held):
-            velocity[held] = np.clip(0.0, q.u_lower[held], q.u_upper[held])
+            stop = held[~_free_to_coast(q, held)]
+            velocity[stop] = np.clip(0.0, q.u_lower[stop], q.u_upper[stop])
         self._held = {members[i] for i in held}
         for robot, v in zip(members, velocity, strict=True):
             self._last[robot] = v.copy()
@@ -215,6 +219,16 @@ class SubteamPlanner:
             return values.T.reshape(m, big_n, 3)
 
         return info
+
+
+def _free_to_coast(q: ProblemInputs, robots: np.ndarray) -> np.ndarray:
+    """Which of ``robots`` may keep their last planned velocity unplanned for a step: those
+    no known zone's row (eq. 7c, 7d) can bind within their velocity bounds
+    (:func:`~.reduction.zone_needs`); the others hold position."""
+    needs = zone_needs(q)
+    if needs is None:
+        return np.zeros(len(robots), dtype=bool)
+    return ~(needs.sensing[robots].any(axis=1) | needs.comm[robots].any(axis=1))
 
 
 def _distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
