@@ -220,13 +220,16 @@ def test_past_its_deadline_a_league_leaves_the_sub_teams_not_yet_planned():
     assert free.success and not free.held
     planner.deadline = 0.0  # long past
     assert planner.subteams is not None and planner.subteams.deadline == 0.0
-    first = planner.plan(q.structure(), members, q)
-    assert first.success and len(first.held) == 8  # 3 sub-teams of 4: two unplanned
-    held = np.array([members.index(robot) for robot in first.held])
+    none = planner.plan(q.structure(), members, q)  # past it before planning: none planned
+    assert none.success and none.held == members
+    held = np.arange(12)
     coast = _free_to_coast(q, held)
     assert coast.any() and not coast.all()  # the scene has both kinds
-    np.testing.assert_array_equal(first.controls[held[~coast]], 0.0)
-    np.testing.assert_array_equal(first.controls[held[coast]], free.controls[held[coast]])
+    np.testing.assert_array_equal(none.controls[held[~coast]], 0.0)
+    np.testing.assert_array_equal(none.controls[held[coast]], free.controls[held[coast]])
+    first = planner.plan(q.structure(), members, q)  # never two steps without a plan
+    assert first.success and len(first.held) == 8  # 3 sub-teams of 4: two unplanned
+    assert len(planner.plan(q.structure(), members, q).held) == 12
     second = planner.plan(q.structure(), members, q)
     assert len(second.held) == 8
     assert set(first.held) - set(second.held)  # an unplanned sub-team went first

@@ -27,9 +27,11 @@ docs/performance.md measures the time and the tracking quality against the joint
 
 Running free on robots, a *deadline* (:attr:`SubteamPlanner.deadline`) bounds a step's
 planning: once the longest window of the step so far, started now, would end after it, the
-sub-teams not yet planned go unplanned this step and are planned first the next step. Their
-robots keep their last planned velocity where no known zone's row can bind within one step
-(the rows hold whatever they do), and hold position (the ladder's safe action) otherwise.
+sub-teams not yet planned go unplanned this step and are planned first the next step (when
+the deadline has passed before planning starts, none is planned, but never two steps in a
+row). Their robots keep their last planned velocity where no known zone's row can bind
+within one step (the rows hold whatever they do), and hold position (the ladder's safe
+action) otherwise.
 Simulated runs never set it (their plans must not depend on the machine's speed).
 """
 
@@ -52,7 +54,7 @@ from resilient_tracking.planning.layout import (
     _information_entries,
 )
 from resilient_tracking.planning.pieces import piece_functions
-from resilient_tracking.planning.plan_result import PlanResult
+from resilient_tracking.planning.plan_result import OVER_BUDGET, PlanResult
 from resilient_tracking.planning.reduction import zone_needs
 from resilient_tracking.planning.spec import SubteamSpec
 
@@ -104,8 +106,12 @@ class SubteamPlanner:
         #: each robot's last planned velocity: where its next plan starts
         self._last: dict[int, np.ndarray] = {}
         self._pieces: dict[tuple[type, float], ca.Function] = {}
-        #: robots that held for the deadline last step: their sub-teams are planned first
-        self._held: set[int] = set()
+        #: when each robot was last planned (in steps planned); with a deadline the sub-teams
+        #: planned longest ago go first
+        self._planned_at: dict[int, int] = {}
+        self._steps = 0
+        #: whether the last step planned no sub-team at all (past its deadline from the start)
+        self._starved = True
 
     def applies(self, structure: Structure) -> bool:
         """Whether a league of this structure is planned as sub-teams: when it has more than
@@ -152,14 +158,17 @@ class SubteamPlanner:
         robot_gaps = _distances(q.positions, q.positions)
         target_gaps = _distances(q.targets, q.positions)
         groups = partition(q.positions, spec.size)
-        if self.deadline is not None:
-            groups.sort(key=lambda g: -sum(members[i] in self._held for i in g))
+        if self.deadline is not None:  # the sub-teams planned longest ago first
+            groups.sort(key=lambda g: min(self._planned_at.get(members[i], -1) for i in g))
+        self._steps += 1
         results: list[PlanResult] = []
         planned: set[int] = set()
         longest = 0.0
         for _ in range(spec.sweeps):
             for g, free in enumerate(groups):
-                if results and self._late(time.perf_counter() + longest):
+                # past the deadline: plan no more (but at least one sub-team when the last
+                # step planned none, so that a slow machine still plans)
+                if (results or not self._starved) and self._late(time.perf_counter() + longest):
                     continue
                 window_started = time.perf_counter()
                 outside_mask = np.ones(n, dtype=bool)
@@ -175,6 +184,8 @@ class SubteamPlanner:
                 result = self.plan_window(sub.structure(), tuple(members[i] for i in robots), sub)
                 results.append(result)
                 planned.add(g)
+                for i in free:
+                    self._planned_at[members[i]] = self._steps
                 longest = max(longest, time.perf_counter() - window_started)
                 velocity[free] = result.controls[: len(free)]
                 gained[free] = q.sensing[free, None, None] * info(
@@ -186,11 +197,14 @@ class SubteamPlanner:
         if len(held):
             stop = held[~_free_to_coast(q, held)]
             velocity[stop] = np.clip(0.0, q.u_lower[stop], q.u_upper[stop])
-        self._held = {members[i] for i in held}
+        self._starved = not results
         for robot, v in zip(members, velocity, strict=True):
             self._last[robot] = v.copy()
-        combined = _combined(results, velocity, (time.perf_counter() - started) * 1e3)
-        return replace(combined, held=tuple(sorted(self._held)))
+        wall_ms = (time.perf_counter() - started) * 1e3
+        if not results:  # nothing planned: every robot coasts or holds
+            return PlanResult(velocity.copy(), OVER_BUDGET, True, 0, wall_ms, held=tuple(members))
+        held_robots = tuple(sorted(members[i] for i in held))
+        return replace(_combined(results, velocity, wall_ms), held=held_robots)
 
     def _late(self, end: float) -> bool:
         return self.deadline is not None and end > self.deadline
