@@ -177,6 +177,7 @@ class Codec:
         return bytes(out)
 
     def write(self, out: bytearray, msg: Any) -> None:
+        """Append the message's fields to ``out`` (which starts with the header)."""
         for write in self._writers:
             write(out, msg)
 
@@ -187,6 +188,7 @@ class Codec:
         return self.read(memoryview(data), 4)[0]
 
     def read(self, buf: memoryview, pos: int) -> tuple[Any, int]:
+        """The message whose fields start at ``pos`` of ``buf``, and where they end."""
         values: dict[str, Any] = {}
         for names, read in self._readers:
             value, pos = read(buf, pos)
@@ -321,6 +323,7 @@ def fast_cdr(cls: _T) -> _T:
     def serialize(
         self: Any, buffer: Any = None, endianness: Any = None, use_version_2: bool | None = None
     ) -> bytes:
+        """The message as CDR bytes, header included (what the DDS writer sends)."""
         if buffer is None and endianness in (None, Endianness.Little) and not use_version_2:
             return codec(cls).encode(self)
         return IdlStruct.serialize(self, buffer, endianness, use_version_2)
@@ -328,6 +331,7 @@ def fast_cdr(cls: _T) -> _T:
     def deserialize(
         klass: Any, data: bytes, has_header: bool = True, use_version_2: bool | None = None
     ) -> Any:
+        """The message of CDR bytes ``data`` (what the DDS reader received)."""
         if has_header and use_version_2 is None and bytes(data[:2]) == HEADER[:2]:
             return codec(klass).decode(data)
         return klass.__idl__.deserialize(data, has_header=has_header, use_version_2=use_version_2)
