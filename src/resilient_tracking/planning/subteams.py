@@ -31,8 +31,8 @@ sub-teams not yet planned go unplanned this step and are planned first the next 
 the deadline has passed before planning starts, none is planned, but never two steps in a
 row). Their robots keep their last planned velocity where no known zone's row can bind
 within one step (the rows hold whatever they do), and hold position (the ladder's safe
-action) otherwise.
-Simulated runs never set it (their plans must not depend on the machine's speed).
+action) otherwise. Simulated runs never set it (their plans must not depend on the machine's
+speed).
 """
 
 from __future__ import annotations

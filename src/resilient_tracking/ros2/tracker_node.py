@@ -126,7 +126,8 @@ class TrackerNode:
         self.team = build_team(scenario, policy, seed, np.asarray(initial_targets, dtype=float))
         #: the policy's planner; running free, it builds new league structures in the
         #: background (the robots take the safe action meanwhile) and stops planning sub-teams
-        #: at ``plan_budget`` of the period into a tick (the rest hold), rather than miss periods
+        #: at ``plan_budget`` of the period into a tick (the rest coast or hold), rather than
+        #: miss periods
         self.planner = getattr(self.team.policy, "planner", None)
         if self.planner is not None and not settings.lockstep:
             self.planner.background_builds = True
