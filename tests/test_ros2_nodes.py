@@ -254,12 +254,14 @@ def test_a_free_running_node_builds_in_the_background_and_warm_up_fills_the_cach
     node.warm_up()  # the mission once in simulation: its structures are built now
     assert cache_module.nlp_cache().builds > 0
     locked = dataclasses.replace(free, lockstep=True)
-    assert not TrackerNode(scenario, 1, "failure_aware", locked, initial).planner.background_builds
+    locked_node = TrackerNode(scenario, 1, "failure_aware", locked, initial)
+    assert not locked_node.planner.background_builds
+    assert locked_node.plan_budget is None and node.plan_budget is not None  # no deadline
 
 
 def test_a_free_running_swarm_node_plans_its_sub_teams_by_a_deadline(domain, monkeypatch):
     """Each tick's team step runs with the planner's deadline at the budget's share of the
-    period after the tick started; a lock-step node has none."""
+    period after the tick started (a lock-step node has none: the test above)."""
     from resilient_tracking.ros2 import tracker_node
 
     scenario = shipped("swarm-40x20").with_overrides(steps=5)
@@ -279,8 +281,6 @@ def test_a_free_running_swarm_node_plans_its_sub_teams_by_a_deadline(domain, mon
     node._tick_started = 100.0
     assert not node._step(msgs.TeamObservation(), np.zeros((40, 2)), np.zeros((20, 2)))
     assert seen == [pytest.approx(100.0 + free.plan_budget * scenario.dt)]
-    locked = dataclasses.replace(free, lockstep=True)
-    assert TrackerNode(scenario, 1, "failure_aware", locked, initial).plan_budget is None
 
 
 def test_a_background_writer_writes_the_newest_message_and_drops_stale_ones():
