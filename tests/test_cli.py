@@ -106,3 +106,19 @@ def test_node_plan_budget_outside_its_range_is_an_error_naming_it(share, capsys)
     pytest.importorskip("cyclonedds")
     assert main(["node", str(SCENARIOS / "sensing-temp.yaml"), "--plan-budget", share]) != 0
     assert "--plan-budget: must be between 0 and 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("given", "expected"),
+    [([], 0.35), (["--plan-budget", "0.5"], 0.5), (["--plan-budget", "0"], None)],
+)
+def test_node_plan_budget_reaches_the_node_settings(given, expected):
+    pytest.importorskip("cyclonedds")
+    from resilient_tracking.cli import _ros2_node_setup, build_parser
+    from resilient_tracking.ros2.topics import NodeSettings
+
+    args = build_parser().parse_args(["node", str(SCENARIOS / "sensing-temp.yaml"), *given])
+    setup = _ros2_node_setup(args)
+    assert setup is not None
+    settings = setup[2]
+    assert isinstance(settings, NodeSettings) and settings.plan_budget == expected

@@ -474,7 +474,7 @@ def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] |
             return None
     if _out_of_range("--altitude", args.altitude, 0.0, 1000.0):  # NaN too
         return None
-    budget = getattr(args, "plan_budget", 0.0)
+    budget = getattr(args, "plan_budget", None)  # None: the settings' default
     if _out_of_range("--plan-budget", budget, 0.0, 1.0):
         return None
     if _out_of_range("--domain", args.domain, 0, 232):  # the DDS domain ids ROS 2 allows
@@ -492,7 +492,7 @@ def _ros2_node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] |
         observation_timeout=args.observation_timeout,
         give_up=args.give_up,
         startup_timeout=args.startup_timeout,
-        plan_budget=budget or None,
+        **({} if budget is None else {"plan_budget": budget or None}),
     )
     return scenario, (scenario.seed if args.seed is None else args.seed), settings
 
@@ -637,10 +637,10 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
             p.add_argument(
                 "--plan-budget",
                 type=float,
-                default=0.4,
+                default=None,
                 metavar="SHARE",
                 help="running free: share of the control period into a tick by which sub-teams "
-                "are planned; the rest hold that tick (default 0.4; 0: no limit)",
+                "are planned; the rest coast or hold that tick (default 0.35; 0: no limit)",
             )
         else:
             p.add_argument("--mode", choices=("sim", "mocap"), default="sim")

@@ -21,6 +21,8 @@ from resilient_tracking.belief.modes import ModeStates, pooled
 
 FloatArray = NDArray[np.float64]
 Criterion = Literal["trace", "det"]
+#: the bounded search's tolerance on ``λ``
+XATOL = 1e-8
 
 
 def covariance_intersection(
@@ -37,13 +39,7 @@ def covariance_intersection(
     compared with both endpoints; equal covariances give ``λ = 0.5``.
     """
     pair = _Pair.of(mean1, cov1, mean2, cov2, criterion)
-    if pair.shortcut is not None:
-        return pair.shortcut
-    res = minimize_scalar(
-        pair.objective, bounds=(0.0, 1.0), method="bounded", options={"xatol": XATOL}
-    )
-    ends = (pair.objective(0.0), pair.objective(1.0))
-    return pair.fused(_weight(ends, float(res.fun), float(res.x)))
+    return pair.shortcut if pair.shortcut is not None else pair.fused(pair.weight())
 
 
 def fuse_estimates(
@@ -65,7 +61,7 @@ def fuse_estimates(
     if criterion == "trace" and searched:
         weights = _searched_weights([pairs[j] for j in searched])
     else:
-        weights = [covariance_intersection(*pairs[j].inputs, criterion)[2] for j in searched]
+        weights = [pairs[j].weight() for j in searched]
     for j, pair in enumerate(pairs):
         if pair.shortcut is not None:
             mean[j], cov[j], lambdas[j] = pair.shortcut
@@ -75,14 +71,12 @@ def fuse_estimates(
     return TargetEstimate(mean, cov, modes), lambdas
 
 
-#: the bounded search's tolerance on ``λ``
-XATOL = 1e-8
-
-
 class _Pair:
     """Two estimates of one state to fuse, checked, with their information matrices."""
 
-    def __init__(self, inputs: tuple[FloatArray, FloatArray, FloatArray, FloatArray], crit: str):
+    def __init__(
+        self, inputs: tuple[FloatArray, FloatArray, FloatArray, FloatArray], crit: Criterion
+    ):
         self.inputs = inputs
         y1, p1, y2, p2 = inputs
         self.criterion = crit
@@ -124,6 +118,14 @@ class _Pair:
             return float(np.trace(_inv_spd(info)))
         sign, logdet = np.linalg.slogdet(info)
         return float(-logdet) if sign > 0 else float("inf")
+
+    def weight(self) -> float:
+        """``λ`` by one bounded search, against both endpoints."""
+        res = minimize_scalar(
+            self.objective, bounds=(0.0, 1.0), method="bounded", options={"xatol": XATOL}
+        )
+        ends = (self.objective(0.0), self.objective(1.0))
+        return _weight(ends, float(res.fun), float(res.x))
 
     def fused(self, lam: float) -> tuple[FloatArray, FloatArray, float]:
         y1, p1, y2, p2 = self.inputs

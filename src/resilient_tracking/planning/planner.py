@@ -346,7 +346,7 @@ class LeaguePlanner(SolverLadder):
     @property
     def deadline(self) -> float | None:
         """When (``time.perf_counter()``) a league planned as sub-teams must be planned by: its
-        sub-teams not yet planned then hold position (running free on robots; None: none)."""
+        sub-teams not yet planned then coast or hold (running free on robots; None: none)."""
         return None if self.subteams is None else self.subteams.deadline
 
     @deadline.setter

@@ -2,9 +2,9 @@
 
 A ROS 2 message ``pkg/msg/Name`` travels in DDS as the struct ``pkg::msg::dds_::Name_``,
 serialized as plain (XCDR1) CDR, with the fields of its ``.msg`` definition in order (by
-:mod:`~.cdr`'s codecs, which give cyclonedds' bytes faster). The
-standard ones below follow the definitions of ROS 2 Humble and Jazzy (identical for these
-types); ``tests/test_ros2_msgs.py`` checks every field against the ``rosbags`` type store and
+:mod:`~.cdr`'s codecs, which give cyclonedds' bytes faster). The standard ones below follow
+the definitions of ROS 2 Humble and Jazzy (identical for these types);
+``tests/test_ros2_msgs.py`` checks every field against the ``rosbags`` type store and
 round-trips CDR between the two.
 
 Two packages are not in a standard ROS 2 install: ``crazyflie_interfaces`` (Crazyswarm2's

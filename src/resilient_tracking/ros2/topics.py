@@ -41,8 +41,8 @@ class NodeSettings:
     #: lock-step: how long to wait for the other node to appear (s)
     startup_timeout: float = 60.0
     #: running free: the share of the control period, from taking an observation, by which
-    #: a league planned as sub-teams must be planned; its sub-teams not planned by then hold
-    #: position that tick (None: no limit)
+    #: a league planned as sub-teams must be planned; its sub-teams not planned by then coast
+    #: or hold that tick (None: no limit)
     plan_budget: float | None = 0.35
 
     @classmethod
