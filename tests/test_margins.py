@@ -7,14 +7,19 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from helpers import inputs, structure_of
+from helpers import inputs, league_inputs, structure_of
+from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import (
     CommRow,
     ParameterLayout,
     SensingRow,
     VariableLayout,
+    sensing_row,
 )
+from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.margins import (
+    PLAN_EPS,
+    SPREAD_EPS,
     keep_out,
     keep_out_lower_bound,
     keep_out_values,
@@ -93,3 +98,63 @@ def test_safe_action_margins_are_the_nlp_rows_at_rest():
         np.testing.assert_allclose(margins[nl], rows[nl:].min(), rtol=1e-12)
     assert VariableLayout(n, nl, nk).n_vars == nlp.n_vars
     assert q.sensing_zones.shape[1] == SensingRow.WIDTH and q.comm_zones.shape[1] == CommRow.WIDTH
+
+
+def regularised_only(x: np.ndarray, gaussians: np.ndarray, offset, beta) -> np.ndarray:
+    """The margin with the regularised ``â`` alone (no completion in the zone's core)."""
+    v = gaussians[:, 0:2] - x
+    dist = np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2 + PLAN_EPS**2)
+    a = v / dist[:, None]
+    g = gaussians
+    quad = (
+        a[:, 0] * a[:, 0] * g[:, 2] + 2 * a[:, 0] * a[:, 1] * g[:, 3] + a[:, 1] * a[:, 1] * g[:, 4]
+    )
+    return np.asarray(dist - offset - beta * np.sqrt(2 * quad + SPREAD_EPS))
+
+
+@pytest.mark.parametrize("sigma", [0.05, 0.3, 0.63, 1.0, 2.0, 5.0])
+@pytest.mark.parametrize("beta", [0.5, 1.16, 2.33, 3.0])
+def test_margin_grows_with_the_distance_from_an_isotropic_zone(sigma, beta):
+    """No position inside a zone is safer than one farther from its mean: the margin rises
+    along every ray, the mean included. The regularised ``â`` alone makes the mean a local
+    maximum (checked too, so that this test can fail)."""
+    zone = np.array([[0.3, -0.2, sigma**2, 0.0, sigma**2]])
+    radii = np.linspace(0.0, 3.0, 3001)
+    for angle in (0.0, 1.0, 2.5):
+        ray = zone[0, :2] + radii[:, None] * np.array([np.cos(angle), np.sin(angle)])
+        h = np.array([keep_out_values(x, zone, 1.2, beta)[0] for x in ray])
+        assert np.all(np.diff(h) > 0)
+        old = np.array([regularised_only(x, zone, 1.2, beta)[0] for x in ray])
+        assert old[0] > old[5]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_margin_is_the_regularised_one_to_the_bit_outside_the_core(seed):
+    rng = np.random.default_rng(seed)
+    gaussians = random_gaussians(rng, 6)
+    offset, beta = rng.uniform(0, 1, 6), rng.uniform(-0.5, 3, 6)
+    for _ in range(50):
+        x = rng.uniform(-4, 4, 2)
+        outside = np.hypot(*(gaussians[:, :2] - x).T) >= 1.0  # beyond every core here
+        new = keep_out_values(x, gaussians, offset, beta)
+        old = regularised_only(x, gaussians, offset, beta)
+        assert np.array_equal(new[outside], old[outside])
+        assert np.all(new[~outside] <= old[~outside])
+
+
+def test_a_robot_near_a_known_zones_mean_plans_its_way_out():
+    """A robot 4 cm from a known sensing zone's mean, no target near: the league problem
+    converges, and the robot moves away from the mean at full speed (with the regularised
+    ``â`` alone, the mean is where the violation is least and no solver converges there)."""
+    beta = chance_margin(0.02)
+    zone = np.array(sensing_row([-3.0, 2.5], 0.4 * np.eye(2), r_safe=1.2, beta=beta))
+    x = np.array([[-3.04, 2.5]])
+    q = league_inputs(
+        x, np.array([[4.0, -4.0]]), [zone.tolist()], [], -np.ones((1, 2)), np.ones((1, 2))
+    )
+    problem = LeagueProblem(structure_of(q), "ipopt", {"codegen": False})
+    solution, stats = problem.solve(q, None, "ipopt")
+    assert stats["success"]
+    u = problem.split(solution["x"])[0]
+    away = (x[0] - zone[:2]) / np.linalg.norm(x[0] - zone[:2])
+    assert u @ away > 0.9

@@ -9,6 +9,20 @@ zone (eq. 7c) and the extra clearance of a comm zone (eq. 7d), whose row also su
 ``δ2 ρ(x_i⁺ − x_q⁺)`` for each teammate, ``ρ(v) = √(‖v‖² + ε²)``. The regularisations ``ε``
 (``PLAN_EPS``) and ``ε_s`` (``SPREAD_EPS``) keep the margin differentiable everywhere.
 
+**The zone's core.** The paper's ``â`` is a unit vector; regularised, ``‖â‖² = 1 − ε²/D²``
+shrinks to 0 at the zone's mean, and with it the spread term. Alone, that makes the mean a
+sharp local maximum of ``h``: a robot inside a known zone, near its mean, would reduce its
+violation by moving *to* the mean, where the margin has a kink that no Newton step converges
+on. Within the zone's core (radius ``r_c``, :func:`_core`) the spread is therefore completed
+with the direction-averaged variance ``m = tr Σ / 2`` for the missing length::
+
+    âᵀΣâ  →  âᵀΣâ + w(‖μ − x⁺‖) (1 − ‖â‖²) m,   w(r) = max(0, 1 − r²/r_c²)³
+
+(``w`` is twice differentiable and exactly 0 from ``r_c`` on, where the margin is the one
+above to the bit). For an isotropic ``Σ`` the margin then rises with the distance from the
+mean everywhere; as ``w (1 − ‖â‖²) m ≤ (1 − ‖â‖²) λ_max``, the bound of
+:func:`keep_out_lower_bound` still holds.
+
 The same margin three ways, side by side: symbolic (:func:`keep_out`, :func:`pair_distance`)
 for the NLP, numeric (:func:`keep_out_values`, :func:`pair_distances`) for the safe action,
 and a lower bound over a disc of reachable positions (:func:`keep_out_lower_bound`) for the
@@ -26,6 +40,24 @@ from resilient_tracking.models.sensor import PLAN_EPS
 
 #: Keeps √(2 âᵀΣâ) differentiable where â vanishes (a robot exactly on a zone's mean).
 SPREAD_EPS = 1e-9
+#: Smallest radius (m) of a zone's core (the module docstring): 2 ``PLAN_EPS``.
+CORE_MIN = 2 * PLAN_EPS
+
+
+def _core(square: Any, mean_variance: Any, beta: Any) -> Any:
+    """``2 w(r) (1 − ‖â‖²) m`` at ``r² = square`` for the spread's completion in the zone's core,
+    NumPy or CasADi; exactly 0 from the core's radius on.
+
+    Without it the margin falls from the mean out to ``r*``, the root of ``r (r² + ε²) = k``,
+    ``k = β √(2m) ε²``; the core's radius ``r_c = max(2ε, 1.5 k^(1/3)) ≥ 1.5 r*`` is where the
+    completed isotropic margin rises everywhere (``tests/test_margins.py``)."""
+    numeric = isinstance(square, np.ndarray)
+    lib: Any = np if numeric else ca
+    fmax = np.maximum if numeric else ca.fmax
+    k = fmax(beta, 0.0) * lib.sqrt(2 * fmax(mean_variance, 0.0)) * PLAN_EPS**2
+    radius = fmax(CORE_MIN, 1.5 * (np.cbrt(k) if numeric else k ** (1 / 3)))
+    w = fmax(0.0, 1.0 - square / radius**2) ** 3
+    return 2 * w * (PLAN_EPS**2 / (square + PLAN_EPS**2)) * mean_variance
 
 
 # ---------------------------------------------------------------------------- symbolic
@@ -42,8 +74,10 @@ def _quad(a: Any, sxx: Any, sxy: Any, syy: Any) -> Any:
 
 def keep_out(xp: Any, gaussian: Any, offset: Any, beta: Any) -> Any:
     """``h(x⁺)`` for a zone's ``gaussian`` (mean, then covariance xx, xy, yy), symbolic."""
-    ahat, dist = _unit_and_norm(gaussian[0:2] - xp)
-    spread = ca.sqrt(2 * _quad(ahat, gaussian[2], gaussian[3], gaussian[4]) + SPREAD_EPS)
+    v = gaussian[0:2] - xp
+    ahat, dist = _unit_and_norm(v)
+    core = _core(ca.sumsqr(v), 0.5 * (gaussian[2] + gaussian[4]), beta)
+    spread = ca.sqrt(2 * _quad(ahat, gaussian[2], gaussian[3], gaussian[4]) + core + SPREAD_EPS)
     return dist - offset - beta * spread
 
 
@@ -61,12 +95,14 @@ def keep_out_values(
     """``h(x)`` of one position ``x`` (2,) for each zone row of ``gaussians`` (L, ≥ 5)."""
     g = np.asarray(gaussians, dtype=float)
     v = g[:, 0:2] - np.asarray(x, dtype=float)
-    dist = np.sqrt(v[:, 0] ** 2 + v[:, 1] ** 2 + PLAN_EPS**2)
+    square = v[:, 0] ** 2 + v[:, 1] ** 2
+    dist = np.sqrt(square + PLAN_EPS**2)
     a = v / dist[:, None]
     quad = (
         a[:, 0] * a[:, 0] * g[:, 2] + 2 * a[:, 0] * a[:, 1] * g[:, 3] + a[:, 1] * a[:, 1] * g[:, 4]
     )
-    return np.asarray(dist - offset - beta * np.sqrt(2 * quad + SPREAD_EPS))
+    core = _core(square, 0.5 * (g[:, 2] + g[:, 4]), np.asarray(beta, dtype=float))
+    return np.asarray(dist - offset - beta * np.sqrt(2 * quad + core + SPREAD_EPS))
 
 
 def pair_distances(x: np.ndarray, others: np.ndarray) -> np.ndarray:
