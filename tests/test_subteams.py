@@ -245,3 +245,44 @@ def test_robots_held_over_the_budget_are_events():
     PlanningPolicy.settle(None, lambda: result, [5, 7, 9], big_league(n=3), 4, decision)  # type: ignore[arg-type]
     budget = [e for e in decision.events if e.fallback == "budget"]
     assert [(e.robot, e.status) for e in budget] == [(7, OVER_BUDGET), (9, OVER_BUDGET)]
+
+
+def test_a_sub_team_whose_solve_fails_takes_the_safe_action_alone():
+    """One window's solve fails: its free robots take the safe action (named in the result with
+    what each did, one event each), the league's other robots keep their planned controls, and
+    the league counts as a failed solve."""
+    from dataclasses import replace
+
+    from resilient_tracking.planning.safe_action import safe_action
+    from resilient_tracking.policies.base import Decision
+    from resilient_tracking.policies.planning_helpers import PlanningPolicy
+
+    planner = LeaguePlanner(subteams=SMALL)
+    planner.prepare_team(12, 6, SENSOR)
+    q, members = big_league(), tuple(range(100, 112))
+    sub = planner.subteams
+    assert sub is not None
+    solve, windows = sub.plan_window, []
+
+    def first_fails(structure, robots, window):
+        windows.append(robots)
+        result = solve(structure, robots, window)
+        if len(windows) > 1:
+            return result
+        return replace(result, success=False, status="Maximum_Iterations_Exceeded", rung="safe")
+
+    sub.plan_window = first_fails
+    result = planner.plan(q.structure(), members, q)
+    failed = np.array([members.index(robot) for robot, _ in result.safe])
+    assert not result.success and len(failed) == SMALL.size
+    assert {members[i] for i in failed} <= set(windows[0])
+    expected, actions = safe_action(q, failed)
+    np.testing.assert_array_equal(result.controls[failed], expected[failed])
+    assert [action for _, action in result.safe] == [actions[i] for i in failed]
+    others = np.setdiff1d(np.arange(12), failed)
+    assert np.all(np.linalg.norm(result.controls[others], axis=1) > 0.1)  # planned, moving
+    decision = Decision(controls=np.zeros((12, 2)), modes=["league"] * 12)
+    controls = PlanningPolicy.settle(None, lambda: result, list(members), q, 4, decision)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(controls, result.controls)
+    safe = sorted(e.robot for e in decision.events if e.fallback == "safe")
+    assert safe == sorted(members[i] for i in failed)

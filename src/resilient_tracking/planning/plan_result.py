@@ -28,3 +28,7 @@ class PlanResult:
     #: free on robots; they keep their last velocity or hold,
     #: :mod:`~resilient_tracking.planning.subteams`)
     held: tuple[int, ...] = ()
+    #: robots of a sub-team whose solve failed, with the safe action each took (``"escape"``
+    #: or ``"hold"``); the league's other robots keep their planned controls
+    #: (:mod:`~resilient_tracking.planning.subteams`)
+    safe: tuple[tuple[int, str], ...] = ()

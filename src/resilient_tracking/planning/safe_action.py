@@ -10,6 +10,8 @@ bounds (which contain zero), which keeps its direction and hence that guarantee.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from resilient_tracking.planning.layout import CommRow, ProblemInputs, SensingRow
@@ -52,8 +54,11 @@ def _scale_into(direction: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> 
     return np.zeros(2) if not np.isfinite(t) else max(t, 0.0) * direction
 
 
-def safe_action(q: ProblemInputs) -> tuple[np.ndarray, list[str]]:
-    """Commands ``(n, 2)`` and, per robot, ``"escape"`` or ``"hold"``."""
+def safe_action(
+    q: ProblemInputs, robots: Sequence[int] | np.ndarray | None = None
+) -> tuple[np.ndarray, list[str]]:
+    """Commands ``(n, 2)`` and, per robot, ``"escape"`` or ``"hold"``; with ``robots``, only
+    those robots are decided (the others get 0 and ``"hold"``)."""
     n = len(q.positions)
     controls = np.zeros((n, 2))
     actions = ["hold"] * n
@@ -62,7 +67,7 @@ def safe_action(q: ProblemInputs) -> tuple[np.ndarray, list[str]]:
     )
     if len(means) == 0:
         return controls, actions
-    for i in range(n):
+    for i in range(n) if robots is None else robots:
         margins = constraint_margins(q, i)
         offsets = q.positions[i] - means
         dists = np.linalg.norm(offsets, axis=1)

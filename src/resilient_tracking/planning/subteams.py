@@ -56,6 +56,7 @@ from resilient_tracking.planning.layout import (
 from resilient_tracking.planning.pieces import piece_functions
 from resilient_tracking.planning.plan_result import OVER_BUDGET, PlanResult
 from resilient_tracking.planning.reduction import zone_needs
+from resilient_tracking.planning.safe_action import safe_action
 from resilient_tracking.planning.spec import SubteamSpec
 
 #: Known zones per kind in a window's problem are padded up to a multiple of this.
@@ -163,6 +164,7 @@ class SubteamPlanner:
         self._steps += 1
         results: list[PlanResult] = []
         planned: set[int] = set()
+        failed: dict[int, str] = {}
         longest = 0.0
         for _ in range(spec.sweeps):
             for g, free in enumerate(groups):
@@ -187,7 +189,12 @@ class SubteamPlanner:
                 for i in free:
                     self._planned_at[members[i]] = self._steps
                 longest = max(longest, time.perf_counter() - window_started)
-                velocity[free] = result.controls[: len(free)]
+                if result.success:
+                    velocity[free] = result.controls[: len(free)]
+                else:  # this sub-team alone takes the safe action; the others keep their plans
+                    controls, actions = safe_action(q, free)
+                    velocity[free] = controls[free]
+                    failed.update((members[i], actions[i]) for i in free)
                 gained[free] = q.sensing[free, None, None] * info(
                     q.positions[free] + velocity[free] * q.dt
                 )
@@ -204,7 +211,8 @@ class SubteamPlanner:
         if not results:  # nothing planned: every robot coasts or holds
             return PlanResult(velocity.copy(), OVER_BUDGET, True, 0, wall_ms, held=tuple(members))
         held_robots = tuple(sorted(members[i] for i in held))
-        return replace(_combined(results, velocity, wall_ms), held=held_robots)
+        combined = _combined(results, velocity, wall_ms)
+        return replace(combined, held=held_robots, safe=tuple(sorted(failed.items())))
 
     def _late(self, end: float) -> bool:
         return self.deadline is not None and end > self.deadline

@@ -131,7 +131,8 @@ class PlanningPolicy(Policy):
         When no solver attempt succeeded (or the planner itself failed), the robots take the
         :func:`~resilient_tracking.planning.safe_action.safe_action` of ``safe`` (the known
         zones as league rows): escape a known zone whose constraint they violate, else hold.
-        Every fallback is an event per robot.
+        A league planned as sub-teams where only some sub-teams failed keeps the others'
+        plans (:attr:`PlanResult.safe`). Every fallback is an event per robot.
         """
         try:
             result = plan()
@@ -147,10 +148,15 @@ class PlanningPolicy(Policy):
                 fallback="safe",
             )
         controls = result.controls
-        if not result.success or not np.isfinite(controls).all():
+        if not np.isfinite(controls).all() or (not result.success and not result.safe):
             controls, actions = safe_action(safe)
             result = replace(result, controls=controls, success=False, fallback="safe")
             for i, action in zip(robots, actions, strict=True):
+                decision.events.append(
+                    Event.solver_fallback(step, i, "safe", result.status, action)
+                )
+        elif result.safe:  # some sub-teams failed and took the safe action, the rest planned
+            for i, action in result.safe:
                 decision.events.append(
                     Event.solver_fallback(step, i, "safe", result.status, action)
                 )
@@ -159,7 +165,7 @@ class PlanningPolicy(Policy):
                 decision.events.append(
                     Event.solver_fallback(step, i, result.fallback, result.status)
                 )
-        for i in result.held if result.success else ():
+        for i in result.held if result.success or result.safe else ():
             decision.events.append(Event.solver_fallback(step, i, "budget", OVER_BUDGET))
         decision.plans.append(result)
         return controls
