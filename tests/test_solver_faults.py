@@ -113,6 +113,21 @@ def test_safe_action_holds_when_escaping_one_zone_approaches_another():
     assert actions == ["hold"] and np.all(u == 0)
 
 
+def test_safe_action_escapes_sideways_when_straight_out_approaches_another_zone():
+    """Near a zone's mean with another zone behind: the straight way out approaches the other
+    zone, so the robot leaves along the edge of the other zone's half-plane instead of holding
+    inside the zone."""
+    z1 = [0.0, 0.0, 0.4, 0.0, 0.4, 1.2, 1.457]
+    z2 = [-3.0, 2.5, 0.25, 0.0, 0.25, 0.25, 0.733]  # not violated
+    q = inputs([[-0.1, 0.0]], sensing_zones=[z1, z2])
+    u, actions = safe_action(q)
+    assert actions == ["escape"]
+    offsets = q.positions[0] - np.array([z1[:2], z2[:2]])
+    assert np.all(offsets @ u[0] > 0)  # away from both means
+    assert u[0, 0] < 0 and u[0, 1] < 0  # out of z1, on z2's far side
+    assert np.abs(offsets[1] @ u[0]) < 1e-5 * np.linalg.norm(offsets[1]) * np.linalg.norm(u[0])
+
+
 def test_safe_action_stays_in_the_bounds_and_keeps_its_direction():
     zone = [0.0, 0.0, 0.1, 0.0, 0.1, 1.0, 2.0]
     # the workspace edge allows only 0.2 m/s to the right

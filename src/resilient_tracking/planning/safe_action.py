@@ -2,10 +2,12 @@
 
 A robot that violates the chance constraint of a known zone (eq. 7c for sensing zones, eq. 7d
 with its teammates for comm zones) steps straight away from those zones; every other robot holds
-its position. The escape is taken only if it moves away from *every* known zone's mean
-(``u · (x − μ) ≥ 0``), otherwise the robot holds too, so the fallback never brings a robot
-closer to a zone it knows. The command is scaled, not clipped per axis, into the velocity
-bounds (which contain zero), which keeps its direction and hence that guarantee.
+its position. The escape never approaches a known zone's mean (``u · (x − μ) ≥ 0`` for every
+zone): when the straight way out would, the robot takes the nearest direction that does not
+(along the edge of some zone's half-plane), and holds when there is none, so the fallback
+never brings a robot closer to a zone it knows. The command is scaled, not clipped per axis,
+into the velocity bounds (which contain zero), which keeps its direction and hence that
+guarantee.
 """
 
 from __future__ import annotations
@@ -19,6 +21,9 @@ from resilient_tracking.planning.margins import keep_out_values, pair_distances
 
 #: Below this distance (m) to a zone mean the way out is undefined: hold.
 MIN_ESCAPE_DISTANCE = 1e-9
+#: How far an escape along a zone's half-plane edge is tilted away from that zone (so that
+#: rounding cannot make it approach the zone).
+EDGE_TILT = 1e-6
 
 
 def constraint_margins(q: ProblemInputs, robot: int) -> np.ndarray:
@@ -54,6 +59,22 @@ def _scale_into(direction: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> 
     return np.zeros(2) if not np.isfinite(t) else max(t, 0.0) * direction
 
 
+def _away_from_every_zone(direction: np.ndarray, offsets: np.ndarray) -> np.ndarray | None:
+    """``direction`` itself when it approaches no zone (``offsets @ d ≥ 0``), else the nearest
+    unit vector to it that does (one on the edge of some zone's half-plane) if it still points
+    along ``direction``, else None."""
+    if np.all(offsets @ direction >= 0):
+        return direction
+    unit = offsets / np.linalg.norm(offsets, axis=1, keepdims=True)
+    edges = np.column_stack([-unit[:, 1], unit[:, 0]])
+    candidates = np.concatenate([edges, -edges]) + EDGE_TILT * np.concatenate([unit, unit])
+    candidates /= np.linalg.norm(candidates, axis=1, keepdims=True)
+    allowed = np.all(candidates @ offsets.T >= 0, axis=1) & (candidates @ direction > 0)
+    if not allowed.any():
+        return None
+    return candidates[allowed][np.argmax(candidates[allowed] @ direction)]
+
+
 def safe_action(
     q: ProblemInputs, robots: Sequence[int] | np.ndarray | None = None
 ) -> tuple[np.ndarray, list[str]]:
@@ -79,8 +100,8 @@ def safe_action(
         norm = float(np.linalg.norm(direction))
         if norm < MIN_ESCAPE_DISTANCE:
             continue
-        direction /= norm
-        if np.any(offsets @ direction < 0):  # would approach some known zone: hold instead
+        direction = _away_from_every_zone(direction / norm, offsets)
+        if direction is None:  # every way out approaches some known zone: hold instead
             continue
         u = _scale_into(direction, q.u_lower[i], q.u_upper[i])
         if np.any(offsets @ u < 0):  # rounding guard
