@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pytest
+from joblib import Parallel, delayed
 from scipy.stats import chi2
 
 from helpers import shipped
@@ -268,15 +269,17 @@ def test_the_watched_team_nees_is_inside_its_band_on_sensing_degrade(missions) -
 # --------------------------------------------------------------------------- zone-free runs
 
 
-def _false_alarms(names: tuple[str, ...], seeds: range) -> tuple[int, int]:
-    robot_steps = alarms = 0
-    for name in names:
-        scenario = overridden(shipped(name), {WATCH: True, "zones": []})
-        for seed in seeds:
-            ev = run_episode(scenario, seed=seed).tables["events"]
-            alarms += int((ev.event == "degradation_detected").sum())
-            robot_steps += len(scenario.robots) * scenario.steps
-    return alarms, robot_steps
+def _alarms(scenario: Scenario, seed: int) -> int:
+    ev = run_episode(scenario, seed=seed).tables["events"]
+    return int((ev.event == "degradation_detected").sum())
+
+
+def _false_alarms(names: tuple[str, ...], seeds: range, jobs: int = 1) -> tuple[int, int]:
+    """Degradation alarms and robot-steps over the zone-free missions, ``jobs`` processes."""
+    scenarios = [overridden(shipped(name), {WATCH: True, "zones": []}) for name in names]
+    runs = [(scenario, seed) for scenario in scenarios for seed in seeds]
+    alarms = Parallel(n_jobs=jobs)(delayed(_alarms)(scenario, seed) for scenario, seed in runs)
+    return sum(alarms), sum(len(scenario.robots) * scenario.steps for scenario, _ in runs)
 
 
 def test_few_false_alarms_on_zone_free_missions() -> None:
@@ -299,6 +302,6 @@ def test_at_most_one_false_alarm_per_ten_thousand_robot_steps() -> None:
         "bench-complex",
         "evasive-open",
     )
-    alarms, robot_steps = _false_alarms(names, SEEDS)
+    alarms, robot_steps = _false_alarms(names, SEEDS, jobs=2)
     assert robot_steps >= 90_000
     assert alarms <= robot_steps / 10_000
