@@ -65,7 +65,10 @@ def _away_from_every_zone(direction: np.ndarray, offsets: np.ndarray) -> np.ndar
     along ``direction``, else None."""
     if np.all(offsets @ direction >= 0):
         return direction
-    unit = offsets / np.linalg.norm(offsets, axis=1, keepdims=True)
+    lengths = np.linalg.norm(offsets, axis=1, keepdims=True)
+    if np.any(lengths < MIN_ESCAPE_DISTANCE):  # on some zone's mean: no edge is defined
+        return None
+    unit = offsets / lengths
     edges = np.column_stack([-unit[:, 1], unit[:, 0]])
     candidates = np.concatenate([edges, -edges]) + EDGE_TILT * np.concatenate([unit, unit])
     candidates /= np.linalg.norm(candidates, axis=1, keepdims=True)

@@ -191,6 +191,8 @@ class SubteamPlanner:
                 longest = max(longest, time.perf_counter() - window_started)
                 if result.success:
                     velocity[free] = result.controls[: len(free)]
+                    for i in free:  # planned in a later sweep after all
+                        failed.pop(members[i], None)
                 else:  # this sub-team alone takes the safe action; the others keep their plans
                     controls, actions = safe_action(q, free)
                     velocity[free] = controls[free]
