@@ -190,3 +190,40 @@ def test_ctrl_c_after_the_command_finished_does_not_end_the_process_by_the_signa
     )
     assert proc.returncode == 0, proc.stderr
     assert "KeyboardInterrupt" not in proc.stderr
+
+
+#: A library that turns the Ctrl-C raised inside it into its own error, as Matplotlib's Agg
+#: renderer does ("Invalid bounding box") when the signal lands while it converts arguments.
+SWALLOWING_LIBRARY = """
+import os, signal, sys, time
+import resilient_tracking.cli as cli
+import resilient_tracking.sim.episode as episode
+
+def swallowing(*args, **kwargs):
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)
+    except KeyboardInterrupt:
+        raise ValueError("Invalid bounding box") from None
+    return 0
+
+cli.cmd_validate = swallowing
+episode.run_episode = swallowing
+sys.exit(cli.main())
+"""
+
+
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_ctrl_c_turned_into_a_library_error_exits_130_without_a_traceback(tmp_path, command):
+    scenario = ROOT / "src" / "resilient_tracking" / "scenarios" / "sensing-temp.yaml"
+    argv = [command, str(scenario)] + (["--out", str(tmp_path / "run")] if command == "run" else [])
+    proc = subprocess.run(
+        [sys.executable, "-c", SWALLOWING_LIBRARY, *argv],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 130, proc.stderr
+    assert "Traceback" not in proc.stderr and "Invalid bounding box" not in proc.stderr
+    assert "interrupted" in proc.stderr

@@ -206,6 +206,7 @@ def _run_into(
             )
         write_run(result, out, finish=finish, overwrite=args.overwrite)
     except Exception as err:  # report, never a traceback; nothing is left half-written
+        interrupts.check()
         logging.getLogger(__name__).debug("run failed", exc_info=True)
         print(
             shown(
@@ -819,7 +820,13 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         with interrupts.catching():
-            code = int(args.func(args))
+            try:
+                code = int(args.func(args))
+            except Exception:
+                # a library that turned the Ctrl-C into its own error (Matplotlib's Agg:
+                # "Invalid bounding box") still stands for the interrupt
+                interrupts.check()
+                raise
         if argv is None:  # the command itself: its shutdown must not end by a late Ctrl-C
             interrupts.ignore_while_exiting()
         return code

@@ -26,7 +26,7 @@ from typing import Any
 
 import pandas as pd
 
-from resilient_tracking import __version__
+from resilient_tracking import __version__, interrupts
 from resilient_tracking.experiments.catalog import BEYOND, RISK_LEVELS, Experiment, Task
 from resilient_tracking.experiments.sweep import run_dir
 from resilient_tracking.runs.folders import write_text_atomic
@@ -220,6 +220,7 @@ def keep(folder: Path, digest: str, summary: pd.DataFrame, jobs: Sequence[Figure
     try:
         summary.to_parquet(folder / ".summary.parquet", index=False)
     except Exception as err:  # e.g. a column of mixed types: nothing to keep
+        interrupts.check()
         log.debug("summary of %s not kept: %s", folder, err)
         with contextlib.suppress(OSError):
             (folder / ".summary.json").unlink()

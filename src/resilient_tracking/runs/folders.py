@@ -33,6 +33,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from resilient_tracking import interrupts
 from resilient_tracking.checksums import sha256_of
 from resilient_tracking.runs.schema import TABLE_FILES, TABLES
 
@@ -119,6 +120,7 @@ def old_tables(folder: Path) -> str | None:
         try:
             present = set(pq.read_schema(path).names)
         except Exception as err:  # any reader error means the table cannot be used
+            interrupts.check()
             return f"{path}: unreadable ({type(err).__name__})"
         missing = [c for c in table.names if c not in present]
         if missing:
@@ -159,6 +161,7 @@ def _verify_legacy(folder: Path) -> str | None:
         try:
             pq.read_metadata(path)
         except Exception as err:  # any reader error means the table cannot be used
+            interrupts.check()
             return f"{path}: unreadable ({type(err).__name__})"
     return None
 

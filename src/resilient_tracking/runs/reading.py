@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from resilient_tracking import interrupts
 from resilient_tracking.runs.folders import read_manifest
 from resilient_tracking.runs.records import EpisodeResult
 from resilient_tracking.runs.schema import REPRODUCIBLE, TABLES
@@ -126,6 +127,7 @@ def _read_table(run_dir: Path, name: str) -> pd.DataFrame:
     try:
         df = pd.read_parquet(path)
     except Exception as err:  # a damaged file: whatever the reader raises, name the file
+        interrupts.check()
         raise ValueError(f"{path}: not a readable table ({type(err).__name__}: {err})") from None
     missing = [c for c in required if c not in df.columns]
     if missing:
