@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -38,21 +41,8 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = Path(__file__).resolve().parents[1]
     base = tmp_path_factory.mktemp("wheel")
     dist = base / "dist"
-    run_checked(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "wheel",
-            "--no-deps",
-            "--no-build-isolation",
-            "-q",
-            "-w",
-            str(dist),
-            str(root),
-        ],
-        cwd=base,
-    )
+    with _building_in(root):
+        _build_wheel(root, dist)
     (wheel,) = dist.glob("resilient_tracking-*.whl")
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
@@ -80,3 +70,39 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
         cwd=base,
     )
     return bin_dir
+
+
+@contextlib.contextmanager
+def _building_in(root: Path) -> Iterator[None]:
+    """Hold the checkout's build lock: setuptools builds in the source tree (``build/``,
+    ``*.egg-info``), so test processes running side by side must not build at once."""
+    lock = root / "build" / ".tests.lock"
+    lock.parent.mkdir(exist_ok=True)
+    with lock.open("w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _build_wheel(root: Path, dist: Path) -> None:
+    import sys
+
+    from helpers import run_checked
+
+    run_checked(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            str(dist),
+            str(root),
+        ],
+        cwd=dist.parent,
+    )
