@@ -3,6 +3,8 @@ joint solve of the same league problem."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from pydantic import ValidationError
@@ -17,6 +19,7 @@ from resilient_tracking.planning.layout import (
     sensing_row,
 )
 from resilient_tracking.planning.planner import LeaguePlanner
+from resilient_tracking.planning.reduction import zone_needs
 from resilient_tracking.planning.spec import PlannerSpec, SubteamSpec
 from resilient_tracking.planning.subteams import (
     ZONE_BUCKET,
@@ -72,7 +75,7 @@ def test_a_window_sees_the_same_information_as_the_league():
     free = np.array([0, 3, 5, 7])
     rest = np.setdiff1d(np.arange(12), free)
     pinned = rest[:2]
-    shared = ProblemInputs(**{**q.__dict__, "prior_info": _information_entries(q.prior_info)})
+    shared = replace(q, prior_info=_information_entries(q.prior_info))
     robots = np.concatenate([free, pinned])
     sub = _window_inputs(shared, robots, 4, velocity, gained[rest].sum(0), np.arange(6))
     window = _information_entries(sub.prior_info) + gained[free].sum(0)
@@ -87,12 +90,10 @@ def test_a_window_sees_the_same_information_as_the_league():
 def test_padding_zones_bind_nothing():
     """A window with its zones padded to the bucket plans exactly as without the padding."""
     q = big_league(n=5, big_n=3)
-    padded = ProblemInputs(
-        **{
-            **q.__dict__,
-            "sensing_zones": _padded(q.sensing_zones, _far("sensing")),
-            "comm_zones": _padded(q.comm_zones, _far("comm")),
-        }
+    padded = replace(
+        q,
+        sensing_zones=_padded(q.sensing_zones, _far("sensing")),
+        comm_zones=_padded(q.comm_zones, _far("comm")),
     )
     assert padded.structure().n_sensing_zones == ZONE_BUCKET
     assert padded.structure().n_comm_zones == ZONE_BUCKET
@@ -136,7 +137,7 @@ def test_sub_teams_track_within_five_percent_of_the_joint_solve_with_one_structu
             assert np.all(result.controls >= q.u_lower - 1e-9)
             assert np.all(result.controls <= q.u_upper + 1e-9)
             traces[name].append(total_trace(q, result.controls))
-            q = ProblemInputs(**{**q.__dict__, "positions": q.positions + result.controls * q.dt})
+            q = replace(q, positions=q.positions + result.controls * q.dt)
     ratio = np.sum(traces["split"]) / np.sum(traces["joint"])
     assert ratio <= 1.05, ratio
     window_structures = list(split_planner.windows._problems)
@@ -197,13 +198,33 @@ def test_a_window_keeps_only_the_zones_that_can_bind_it():
 
     q = big_league(n=5, big_n=3)
     far = sensing_row([40.0, 40.0], 0.2 * np.eye(2), r_safe=0.5, beta=chance_margin(0.02))
-    many = ProblemInputs(**{**q.__dict__, "sensing_zones": np.vstack([q.sensing_zones, [far] * 5])})
+    many = replace(q, sensing_zones=np.vstack([q.sensing_zones, [far] * 5]))
     window = _binding_zones(many)
     assert window.structure().n_sensing_zones == ZONE_BUCKET  # 6 known, 1 near
     planner = LeaguePlanner(solver="ipopt")
     every = planner.plan(many.structure(), tuple(range(5)), many)
     kept = planner.plan(window.structure(), tuple(range(5)), window)
     np.testing.assert_allclose(kept.controls, every.controls, atol=1e-6)
+
+
+def test_a_window_carries_the_zone_needs_its_solve_would_judge():
+    """The needs a window carries (padding columns false) are those judged afresh on it."""
+    from resilient_tracking.planning.subteams import _binding_zones
+
+    binding = 0
+    for seed in range(5):
+        q = big_league(n=6, big_n=3, seed=seed)
+        far = sensing_row([40.0, 40.0], 0.2 * np.eye(2), r_safe=0.5, beta=chance_margin(0.02))
+        many = replace(q, sensing_zones=np.vstack([q.sensing_zones, [far] * 3]))
+        window = _binding_zones(many)
+        carried = window.zone_needs
+        fresh = zone_needs(replace(window))  # replace() drops what the window carries
+        assert carried is not None and fresh is not None
+        assert zone_needs(window) is carried
+        for name in ("sensing", "comm", "near", "far"):
+            np.testing.assert_array_equal(getattr(carried, name), getattr(fresh, name))
+        binding += int(fresh.sensing.any() or fresh.comm.any())
+    assert binding  # the test sees rows that bind, not only padding
 
 
 def test_past_its_deadline_a_league_leaves_the_sub_teams_not_yet_planned():

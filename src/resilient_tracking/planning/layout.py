@@ -198,6 +198,20 @@ def _information_entries(info: np.ndarray) -> np.ndarray:
 
 
 @dataclass
+class ZoneNeeds:
+    """Which zone rows can bind this step (:func:`~.reduction.zone_needs`), and the teammate
+    distance bounds they were judged with."""
+
+    #: (n, L) and (n, K): robot i may need sensing zone l's row, comm zone k's rows
+    sensing: np.ndarray
+    comm: np.ndarray
+    #: (n, n) lower and upper bounds of the teammates' distance after the step (−∞ on the
+    #: diagonal and for links left out of eq. 7d)
+    near: np.ndarray
+    far: np.ndarray
+
+
+@dataclass
 class ProblemInputs:
     """Numeric values for one solve of a league problem."""
 
@@ -240,6 +254,9 @@ class ProblemInputs:
     standoff: float = PLAN_EPS
     #: the robots' measurement model (:attr:`Structure.sensor_model`)
     sensor_model: type[MeasurementModel] = RangeBearingSensor
+    #: which zone rows can bind, when whoever made these inputs has already judged it (the
+    #: sub-team windows); never copied by :func:`dataclasses.replace`, whose inputs may differ
+    zone_needs: ZoneNeeds | None = field(default=None, init=False, repr=False, compare=False)
 
     def structure(self) -> Structure:
         """The sizes and program of the problem these inputs are for."""

@@ -23,6 +23,7 @@ from resilient_tracking.planning.layout import (
     Structure,
     VariableLayout,
     Weight,
+    ZoneNeeds,
 )
 from resilient_tracking.planning.margins import keep_out_lower_bound, pair_distance_upper_bound
 from resilient_tracking.planning.solver_options import SLOTS
@@ -87,24 +88,13 @@ class Reduction:
         return solution
 
 
-@dataclass
-class ZoneNeeds:
-    """Which zone rows can bind this step (:func:`zone_needs`), and the teammate distance
-    bounds they were judged with."""
-
-    #: (n, L) and (n, K): robot i may need sensing zone l's row, comm zone k's rows
-    sensing: np.ndarray
-    comm: np.ndarray
-    #: (n, n) lower and upper bounds of the teammates' distance after the step (−∞ on the
-    #: diagonal and for links left out of eq. 7d)
-    near: np.ndarray
-    far: np.ndarray
-
-
 def zone_needs(q: ProblemInputs) -> ZoneNeeds | None:
     """The zone rows of ``q`` that may bind within the velocity bounds (points 1 and 2 of
     :func:`reduce`'s proof: every other row holds with a zero slack), or None when that cannot
-    be told (a negative ``δ2``, ``w3`` or ``w4``, or a robot with no link kept)."""
+    be told (a negative ``δ2``, ``w3`` or ``w4``, or a robot with no link kept). Inputs that
+    carry their needs (:attr:`~.layout.ProblemInputs.zone_needs`) are not judged again."""
+    if q.zone_needs is not None:
+        return q.zone_needs
     n = len(q.positions)
     zs = q.sensing_zones.reshape(-1, SensingRow.WIDTH)
     zc = q.comm_zones.reshape(-1, CommRow.WIDTH)

@@ -51,6 +51,7 @@ from resilient_tracking.planning.layout import (
     ProblemInputs,
     SensingRow,
     Structure,
+    ZoneNeeds,
     _information_entries,
 )
 from resilient_tracking.planning.pieces import piece_functions
@@ -313,17 +314,31 @@ def _window_inputs(
 def _binding_zones(sub: ProblemInputs) -> ProblemInputs:
     """``sub`` with only the zones whose rows may bind one of its robots this step
     (:func:`~.reduction.zone_needs`: the others hold with zero slack whatever the window
-    decides), padded to the bucket."""
+    decides), padded to the bucket; it carries those needs, so the window's solve does not
+    judge them again (a padding zone binds nothing)."""
     sensing, comm = sub.sensing_zones, sub.comm_zones
     needs = zone_needs(sub)
     if needs is not None:
-        sensing = sensing[needs.sensing.any(axis=0)]
-        comm = comm[needs.comm.any(axis=0)]
-    return replace(
+        keep_s, keep_c = needs.sensing.any(axis=0), needs.comm.any(axis=0)
+        sensing, comm = sensing[keep_s], comm[keep_c]
+    window = replace(
         sub,
         sensing_zones=_padded(sensing, _FAR_SENSING),
         comm_zones=_padded(comm, _FAR_COMM),
     )
+    if needs is not None:
+        window.zone_needs = ZoneNeeds(
+            _padded_columns(needs.sensing[:, keep_s], len(window.sensing_zones)),
+            _padded_columns(needs.comm[:, keep_c], len(window.comm_zones)),
+            needs.near,
+            needs.far,
+        )
+    return window
+
+
+def _padded_columns(need: np.ndarray, width: int) -> np.ndarray:
+    """``need`` (robots × zones) with ``False`` columns for the padding zones up to ``width``."""
+    return np.hstack([need, np.zeros((len(need), width - need.shape[1]), dtype=bool)])
 
 
 def _bucket(count: int) -> int:
