@@ -155,15 +155,20 @@ def test_the_window_structure_is_built_before_a_run():
     assert LeaguePlanner(subteams=SMALL).prepare_team(8, 6, SENSOR) is None
 
 
-def test_in_a_large_team_a_league_larger_than_a_window_is_split_too():
+def test_in_a_large_team_every_league_plans_on_windows():
+    """In a team of more than ``above`` robots a league smaller than ``above`` (8 robots, split
+    into windows) and one smaller than a window (1 robot, a window of its own) build no
+    problem of their own; in a small team they are solved jointly."""
     planner = LeaguePlanner(subteams=SMALL)
     q = big_league(n=8)
     assert planner.subteams is not None and not planner.subteams.applies(q.structure())
     planner.prepare_team(12, 6, SENSOR)
-    assert planner.subteams.applies(q.structure())  # 8 robots > a window of 6
-    assert not planner.subteams.applies(big_league(n=6).structure())
-    result = planner.plan(q.structure(), tuple(range(8)), q)
-    assert result.success and not list(planner._problems)
+    for n in (8, 1):
+        league = big_league(n=n)
+        assert planner.subteams.applies(league.structure())
+        result = planner.plan(league.structure(), tuple(range(n)), league)
+        assert result.success and result.controls.shape == (n, 2)
+    assert not list(planner._problems)
 
 
 def test_the_sensors_numpy_information_is_the_nlps():
@@ -254,6 +259,20 @@ def test_past_its_deadline_a_league_leaves_the_sub_teams_not_yet_planned():
     second = planner.plan(q.structure(), members, q)
     assert len(second.held) == 8
     assert set(first.held) - set(second.held)  # an unplanned sub-team went first
+
+
+def test_past_its_deadline_a_league_of_one_window_is_still_planned():
+    """A league that fits one window (in a large team it plans on windows, where a small
+    team would solve it jointly) is planned whatever the deadline, as the joint solve was."""
+    planner = LeaguePlanner(subteams=SMALL)
+    planner.prepare_team(12, 6, SENSOR)
+    planner.deadline = 0.0  # long past
+    for _ in range(3):
+        for n in (12, 5):
+            q = big_league(n=n)
+            result = planner.plan(q.structure(), tuple(range(n)), q)
+            assert result.success
+        assert not result.held  # the 5-robot league, every time
 
 
 def test_robots_held_over_the_budget_are_events():

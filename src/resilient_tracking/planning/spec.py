@@ -70,15 +70,16 @@ class SubteamSpec(Strict):
     more than ``above`` robots solves the league problem for ``size`` robots at a time, with
     ``pinned`` teammates held at their planned step and every other robot's planned
     measurements in the targets' prior; smaller leagues are solved jointly (the paper's
-    program)."""
+    program), except in a team of more than ``above`` robots, where every league plans on
+    windows."""
 
     above: int = Field(
         20,
         ge=1,
         le=64,
         description=(
-            "Leagues of more robots than this are planned as sub-teams; smaller ones jointly. "
-            "Set 64 to always solve jointly."
+            "Leagues of more robots than this are planned as sub-teams; smaller ones jointly, "
+            "unless the team has more robots than this. Set 64 to always solve jointly."
         ),
     )
     size: int = Field(8, ge=1, le=64, description="Robots planned together in one sub-team.")

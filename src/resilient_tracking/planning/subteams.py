@@ -31,8 +31,9 @@ sub-teams not yet planned go unplanned this step and are planned first the next 
 the deadline has passed before planning starts, none is planned, but never two steps in a
 row). Their robots keep their last planned velocity where no known zone's row can bind
 within one step (the rows hold whatever they do), and hold position (the ladder's safe
-action) otherwise. Simulated runs never set it (their plans must not depend on the machine's
-speed).
+action) otherwise. A league of at most ``size + pinned`` robots (in a large team every league
+plans on windows, :meth:`SubteamPlanner.applies`) is always planned, as its joint solve was.
+Simulated runs never set a deadline (their plans must not depend on the machine's speed).
 """
 
 from __future__ import annotations
@@ -117,11 +118,11 @@ class SubteamPlanner:
 
     def applies(self, structure: Structure) -> bool:
         """Whether a league of this structure is planned as sub-teams: when it has more than
-        ``above`` robots, and in a team of more than ``above`` (:attr:`large_team`) when it
-        has more than a window's, so that the parts of a split swarm also reuse the window's
-        problem instead of building their own."""
-        n = structure.n_robots
-        return n > self.spec.above or (self.large_team and n > self.spec.size + self.spec.pinned)
+        ``above`` robots, and every league of a team of more than ``above``
+        (:attr:`large_team`), however small, so that the parts of a split swarm plan on
+        windows too (bucketed zones, the nearest targets) instead of building a problem of
+        their own, with all their targets and zones, in the middle of a run."""
+        return structure.n_robots > self.spec.above or self.large_team
 
     def structure(
         self,
@@ -160,7 +161,11 @@ class SubteamPlanner:
         robot_gaps = _distances(q.positions, q.positions)
         target_gaps = _distances(q.targets, q.positions)
         groups = partition(q.positions, spec.size)
-        if self.deadline is not None:  # the sub-teams planned longest ago first
+        # a league of one window is always planned, as its joint solve would be; a larger one
+        # stops at the deadline
+        several = n > spec.size + spec.pinned
+        bounded = self.deadline is not None and several
+        if bounded:  # the sub-teams planned longest ago first
             groups.sort(key=lambda g: min(self._planned_at.get(members[i], -1) for i in g))
         self._steps += 1
         results: list[PlanResult] = []
@@ -171,7 +176,8 @@ class SubteamPlanner:
             for g, free in enumerate(groups):
                 # past the deadline: plan no more (but at least one sub-team when the last
                 # step planned none, so that a slow machine still plans)
-                if (results or not self._starved) and self._late(time.perf_counter() + longest):
+                late = self._late(time.perf_counter() + longest)
+                if bounded and (results or not self._starved) and late:
                     continue
                 window_started = time.perf_counter()
                 outside_mask = np.ones(n, dtype=bool)
@@ -207,7 +213,8 @@ class SubteamPlanner:
         if len(held):
             stop = held[~_free_to_coast(q, held)]
             velocity[stop] = np.clip(0.0, q.u_lower[stop], q.u_upper[stop])
-        self._starved = not results
+        if several:
+            self._starved = not results
         for robot, v in zip(members, velocity, strict=True):
             self._last[robot] = v.copy()
         wall_ms = (time.perf_counter() - started) * 1e3
