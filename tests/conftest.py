@@ -42,7 +42,21 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     base = tmp_path_factory.mktemp("wheel")
     dist = base / "dist"
     with _building_in(root):
-        _build_wheel(root, dist)
+        run_checked(
+            [
+                sys.executable,
+                "-m",
+                "pip",
+                "wheel",
+                "--no-deps",
+                "--no-build-isolation",
+                "-q",
+                "-w",
+                str(dist),
+                str(root),
+            ],
+            cwd=base,
+        )
     (wheel,) = dist.glob("resilient_tracking-*.whl")
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
@@ -84,25 +98,3 @@ def _building_in(root: Path) -> Iterator[None]:
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
-
-
-def _build_wheel(root: Path, dist: Path) -> None:
-    import sys
-
-    from helpers import run_checked
-
-    run_checked(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "wheel",
-            "--no-deps",
-            "--no-build-isolation",
-            "-q",
-            "-w",
-            str(dist),
-            str(root),
-        ],
-        cwd=dist.parent,
-    )

@@ -176,8 +176,8 @@ class SubteamPlanner:
             for g, free in enumerate(groups):
                 # past the deadline: plan no more (but at least one sub-team when the last
                 # step planned none, so that a slow machine still plans)
-                late = self._late(time.perf_counter() + longest)
-                if bounded and (results or not self._starved) and late:
+                late = bounded and self._late(time.perf_counter() + longest)
+                if late and (results or not self._starved):
                     continue
                 window_started = time.perf_counter()
                 outside_mask = np.ones(n, dtype=bool)
