@@ -3,6 +3,7 @@ joint solve of the same league problem."""
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -326,3 +327,70 @@ def test_a_sub_team_whose_solve_fails_takes_the_safe_action_alone():
     np.testing.assert_array_equal(controls, result.controls)
     safe = sorted(e.robot for e in decision.events if e.fallback == "safe")
     assert safe == sorted(members[i] for i in failed)
+
+
+def test_past_its_deadline_a_window_whose_sqp_fails_takes_the_safe_action_without_ipopt():
+    """Running free, a window's failed SQP is not followed by IPOPT (whose time has no
+    bound): its sub-team takes the safe action at once. Without a deadline the ladder
+    climbs as always."""
+    from resilient_tracking.planning.faults import FaultInjector
+
+    planner = LeaguePlanner(
+        subteams=SMALL, fault_hook=FaultInjector(1.0, ["infeasible"], rungs=["sqp"])
+    )
+    planner.prepare_team(12, 6, SENSOR)
+    q, members = big_league(), tuple(range(12))
+    assert planner.windows is not None
+    solve, rungs = planner.windows.plan, []
+
+    def recorded(structure, robots, window):
+        result = solve(structure, robots, window)
+        rungs.append([rung for rung, _ in result.attempts])
+        return result
+
+    assert planner.subteams is not None
+    planner.subteams.plan_window = recorded
+    climbed = planner.plan(q.structure(), members, q)
+    assert climbed.success and all(attempts[-1] != "sqp" for attempts in rungs)
+    rungs.clear()
+    planner.deadline = time.perf_counter() + 60.0  # a minute to spare: every window planned
+    bounded = planner.plan(q.structure(), members, q)
+    assert rungs and all(attempts == ["sqp"] for attempts in rungs)
+    assert not bounded.success and len(bounded.safe) == 12
+    planner.deadline = None
+    rungs.clear()
+    assert planner.plan(q.structure(), members, q).success
+    assert all(len(attempts) > 1 for attempts in rungs)
+
+
+def test_a_league_past_its_deadline_is_not_routed_and_smaller_leagues_plan_first():
+    """Running free, the policy plans the smaller leagues first (each fits one window and is
+    planned whatever the deadline), and a league that will go unplanned gets no route rows;
+    without a deadline the leagues go in their order and every league is routed."""
+    from helpers import shipped
+    from resilient_tracking.sim.episode import start_truth
+    from resilient_tracking.team import build_team
+    from resilient_tracking.world import World
+
+    scenario = shipped("swarm-40x20")
+    targets, _ = start_truth(scenario, 1)
+    team = build_team(scenario, "failure_aware", 1, targets)
+    policy, planner = team.policy, team.policy.planner
+    obs = World(scenario, 1).observe()
+    team.perceive(obs)
+    league, others = list(range(40)), [[3], [5, 6]]
+    weights, sensing = np.ones(5), np.ones(40)
+
+    def routed() -> bool:
+        q = policy.tracking_inputs(team.belief, obs, league, 0, weights[:4], sensing)
+        return q.route is not None
+
+    leagues = [league, *others]
+    assert policy.planning_order(leagues) == [0, 1, 2] and routed()
+    planner.deadline = 0.0  # long past
+    assert policy.planning_order(leagues) == [1, 2, 0]
+    assert planner.subteams is not None
+    planner.subteams._starved = False  # the league was planned the step before
+    assert not routed() and planner.skips(40) and not planner.skips(12)  # one window
+    planner.subteams._starved = True
+    assert routed()  # never two steps in a row without a plan

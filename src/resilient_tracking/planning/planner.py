@@ -81,6 +81,9 @@ class SolverLadder:
         self.solver = solver
         self.fault_hook = fault_hook
         self.background_builds = background_builds
+        #: running free against the clock: only the first rung is tried, and a failure takes
+        #: the safe action at once (an IPOPT rung after a failed SQP has no time bound)
+        self.first_rung_only = False
         self._builder: ThreadPoolExecutor | None = None
         self._building: dict[Any, Future[Any]] = {}
         self._lock = threading.Lock()
@@ -177,6 +180,8 @@ class SolverLadder:
             attempts.append(("build", BUILDING))
             return self._safe(structure, members, q, BUILDING, iterations, attempts, start)
         for k, (rung, method, use_warm) in enumerate(self.rungs(warm)):
+            if k > 0 and self.first_rung_only:
+                break
             try:
                 solution, stats = problem.solve(q, warm if use_warm else None, method)
                 if self.fault_hook is not None:
@@ -331,6 +336,11 @@ class LeaguePlanner(SolverLadder):
             return self.subteams.plan(members, q)
         return super().plan(structure, members, q)
 
+    def skips(self, n_robots: int) -> bool:
+        """Whether a league of ``n_robots`` goes unplanned this step, past the deadline
+        (:meth:`SubteamPlanner.skips`): its inputs need no route rows."""
+        return self.subteams is not None and self.subteams.skips(n_robots)
+
     @property
     def background_builds(self) -> bool:
         """Whether new structures are built in a worker thread (the sub-team windows' too)."""
@@ -346,13 +356,16 @@ class LeaguePlanner(SolverLadder):
     @property
     def deadline(self) -> float | None:
         """When (``time.perf_counter()``) a league planned as sub-teams must be planned by: its
-        sub-teams not yet planned then coast or hold (running free on robots; None: none)."""
+        sub-teams not yet planned then coast or hold, and a sub-team whose SQP fails takes the
+        safe action instead of trying IPOPT (running free on robots; None: none)."""
         return None if self.subteams is None else self.subteams.deadline
 
     @deadline.setter
     def deadline(self, value: float | None) -> None:
         if self.subteams is not None:
             self.subteams.deadline = value
+        if self.windows is not None:  # against a deadline a window never falls back to IPOPT
+            self.windows.first_rung_only = value is not None
 
     def close(self) -> None:
         """Stop background building, the sub-team windows' too."""

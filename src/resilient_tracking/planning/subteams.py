@@ -26,14 +26,18 @@ knowledge changes. A robot's plan starts from its last planned velocity.
 docs/performance.md measures the time and the tracking quality against the joint solve.
 
 Running free on robots, a *deadline* (:attr:`SubteamPlanner.deadline`) bounds a step's
-planning: once the longest window of the step so far, started now, would end after it, the
-sub-teams not yet planned go unplanned this step and are planned first the next step (when
-the deadline has passed before planning starts, none is planned, but never two steps in a
-row). Their robots keep their last planned velocity where no known zone's row can bind
-within one step (the rows hold whatever they do), and hold position (the ladder's safe
-action) otherwise. A league of at most ``size + pinned`` robots (in a large team every league
-plans on windows, :meth:`SubteamPlanner.applies`) is always planned, as its joint solve was.
-Simulated runs never set a deadline (their plans must not depend on the machine's speed).
+planning: once the longest window of the step so far (of the step before, until one is
+timed), started now, would end after it, the sub-teams not yet planned go unplanned this
+step and are planned first the next step (when the deadline has passed before planning
+starts, none is planned, but never two steps in a row; :meth:`SubteamPlanner.skips` tells
+the policy, which then computes no route rows).
+Their robots keep their last planned velocity where no known zone's row can bind within one
+step (the rows hold whatever they do), and hold position (the ladder's safe action)
+otherwise. A league of at most ``size + pinned`` robots (in a large team every league plans
+on windows, :meth:`SubteamPlanner.applies`) is always planned, as its joint solve was.
+Against a deadline a window whose SQP fails takes the safe action instead of trying IPOPT,
+whose time has no bound (``SolverLadder.first_rung_only``). Simulated runs never set a
+deadline (their plans must not depend on the machine's speed).
 """
 
 from __future__ import annotations
@@ -113,6 +117,9 @@ class SubteamPlanner:
         #: planned longest ago go first
         self._planned_at: dict[int, int] = {}
         self._steps = 0
+        #: the longest window (s) of the last step that planned one: how long the next
+        #: window is expected to take, before this step has timed one of its own
+        self._window_time = 0.0
         #: whether the last step planned no sub-team at all (past its deadline from the start)
         self._starved = True
 
@@ -122,7 +129,10 @@ class SubteamPlanner:
         (:attr:`large_team`), however small, so that the parts of a split swarm plan on
         windows too (bucketed zones, the nearest targets) instead of building a problem of
         their own, with all their targets and zones, in the middle of a run."""
-        return structure.n_robots > self.spec.above or self.large_team
+        return self._splits(structure.n_robots)
+
+    def _splits(self, n: int) -> bool:
+        return n > self.spec.above or self.large_team
 
     def structure(
         self,
@@ -154,6 +164,11 @@ class SubteamPlanner:
             [self._last.get(robot, np.zeros(2)) for robot in members], dtype=float
         ).reshape(n, 2)
         velocity = np.clip(velocity, q.u_lower, q.u_upper)
+        several = n > spec.size + spec.pinned
+        if self.skips(n):  # past the deadline already: no sub-team is planned
+            self._steps += 1
+            self._starved = True
+            return self._league_result(members, q, velocity, np.arange(n), [], {}, started)
         info = self._information(q)
         gained = q.sensing[:, None, None] * info(q.positions + velocity * q.dt)  # (n, N, 3)
         # what every window shares this step, computed once
@@ -163,7 +178,6 @@ class SubteamPlanner:
         groups = partition(q.positions, spec.size)
         # a league of one window is always planned, as its joint solve would be; a larger one
         # stops at the deadline
-        several = n > spec.size + spec.pinned
         bounded = self.deadline is not None and several
         if bounded:  # the sub-teams planned longest ago first
             groups.sort(key=lambda g: min(self._planned_at.get(members[i], -1) for i in g))
@@ -171,12 +185,12 @@ class SubteamPlanner:
         results: list[PlanResult] = []
         planned: set[int] = set()
         failed: dict[int, str] = {}
-        longest = 0.0
+        longest, expected = 0.0, self._window_time
         for _ in range(spec.sweeps):
             for g, free in enumerate(groups):
                 # past the deadline: plan no more (but at least one sub-team when the last
                 # step planned none, so that a slow machine still plans)
-                late = bounded and self._late(time.perf_counter() + longest)
+                late = bounded and self._late(time.perf_counter() + max(longest, expected))
                 if late and (results or not self._starved):
                     continue
                 window_started = time.perf_counter()
@@ -210,11 +224,35 @@ class SubteamPlanner:
         held = np.array(
             [i for g, free in enumerate(groups) if g not in planned for i in free], dtype=int
         )
+        if several:
+            self._starved = not results
+        if several and results:
+            self._window_time = longest
+        return self._league_result(members, q, velocity, held, results, failed, started)
+
+    def skips(self, n: int) -> bool:
+        """Whether a league of ``n`` robots goes unplanned this step (its robots coast or
+        hold): more than one window, the deadline already passed, and planned the step
+        before. Its route rows need not be computed."""
+        several = self._splits(n) and n > self.spec.size + self.spec.pinned
+        end = time.perf_counter() + self._window_time
+        return several and self._late(end) and not self._starved
+
+    def _league_result(
+        self,
+        members: tuple[int, ...],
+        q: ProblemInputs,
+        velocity: np.ndarray,
+        held: np.ndarray,
+        results: list[PlanResult],
+        failed: dict[int, str],
+        started: float,
+    ) -> PlanResult:
+        """The league's result once the windows ``results`` are planned: the ``held`` robots
+        (not planned) keep their last velocity where they may coast, else hold position."""
         if len(held):
             stop = held[~_free_to_coast(q, held)]
             velocity[stop] = np.clip(0.0, q.u_lower[stop], q.u_upper[stop])
-        if several:
-            self._starved = not results
         for robot, v in zip(members, velocity, strict=True):
             self._last[robot] = v.copy()
         wall_ms = (time.perf_counter() - started) * 1e3

@@ -164,7 +164,8 @@ class FailureAwarePolicy(PlanningPolicy):
         if self.quarantine is not None:
             self.quarantine.observe(obs)
 
-        for k, robots in enumerate(belief.leagues):
+        for k in self.planning_order(belief.leagues):
+            robots = belief.leagues[k]
             # with zone motion, the zones as predicted at the planned step (x⁺)
             knowledge = belief.plan_knowledge(robots, obs.step + 1)
             if len(robots) == 1 and obs.comm_persistence[robots[0]] == "permanent":

@@ -11,7 +11,7 @@ program of its own (SOG) solves it itself and settles the result the same way.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -56,6 +56,17 @@ class PlanningPolicy(Policy):
         """The policy with the scenario's league planner."""
         return cls(config, params, planner)
 
+    def planning_order(self, leagues: Sequence[Sequence[int]]) -> list[int]:
+        """The order in which the leagues are planned this step: as listed; running free
+        against a deadline (:attr:`LeaguePlanner.deadline`), the smaller leagues first. A
+        league of at most one sub-team window is always planned, whatever the deadline, so
+        planned first it cannot push the step past it; the large league, whose sub-teams stop
+        at the deadline, then takes the time that is left."""
+        order = list(range(len(leagues)))
+        if self.planner.deadline is None:
+            return order
+        return sorted(order, key=lambda k: len(leagues[k]))
+
     def tracking_inputs(
         self,
         belief: TeamBelief,
@@ -90,6 +101,8 @@ class PlanningPolicy(Policy):
         )
         route = self.planner.route
         if route is None or not with_route:  # the one-step program, or a program of its own
+            return q
+        if self.planner.skips(len(robots)):  # past the deadline: the league coasts or holds
             return q
         positions = obs.positions[robots]
         discs = keep_out_discs(sensing_zones, comm_zones, _mean_spacing(positions))

@@ -183,7 +183,8 @@ class SogPolicy(PlanningPolicy):
         decision = Decision(controls=np.zeros((m, 2)), modes=["league"] * m)
         w_track, w_risk = abundance_weights(self.params, float(np.mean(obs.sensing_ok)))
         self.last_weights = (w_track, w_risk)
-        for k, robots in enumerate(belief.leagues):
+        for k in self.planning_order(belief.leagues):
+            robots = belief.leagues[k]
             sensing = obs.sensing_ok[robots].astype(float)
             base = self.tracking_inputs(
                 belief, obs, robots, k, np.zeros(Weight.COUNT), sensing, with_route=False

@@ -48,7 +48,8 @@ class VanillaPolicy(PlanningPolicy):
         """Per league, its sensing robots minimise tracking trace plus effort; others idle."""
         m = obs.n_robots
         decision = Decision(controls=np.zeros((m, 2)), modes=["idle"] * m)
-        for k, robots in enumerate(belief.leagues):
+        for k in self.planning_order(belief.leagues):
+            robots = belief.leagues[k]
             # Robots that cannot sense gain nothing by moving: they stay put ("idle").
             sensing = [i for i in robots if obs.sensing_ok[i]]
             if not sensing:
