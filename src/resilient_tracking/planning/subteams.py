@@ -30,14 +30,13 @@ planning: once the longest window of the step so far (of the step before, until 
 timed), started now, would end after it, the sub-teams not yet planned go unplanned this
 step and are planned first the next step (when the deadline has passed before planning
 starts, none is planned, but never two steps in a row; :meth:`SubteamPlanner.skips` tells
-the policy, which then computes no route rows).
-Their robots keep their last planned velocity where no known zone's row can bind within one
-step (the rows hold whatever they do), and hold position (the ladder's safe action)
-otherwise. A league of at most ``size + pinned`` robots (in a large team every league plans
-on windows, :meth:`SubteamPlanner.applies`) is always planned, as its joint solve was.
-Against a deadline a window whose SQP fails takes the safe action instead of trying IPOPT,
-whose time has no bound (``SolverLadder.first_rung_only``). Simulated runs never set a
-deadline (their plans must not depend on the machine's speed).
+the policy, which then computes no route rows). Their robots keep their last planned velocity
+where no known zone's row can bind within one step (the rows hold whatever they do), and hold
+position (the ladder's safe action) otherwise. A league of at most ``size + pinned`` robots
+(in a large team every league plans on windows, :meth:`SubteamPlanner.applies`) is always
+planned, as its joint solve was. Against a deadline a window whose SQP fails takes the safe
+action instead of trying IPOPT, whose time has no bound (``SolverLadder.first_rung_only``).
+Simulated runs never set a deadline (their plans must not depend on the machine's speed).
 """
 
 from __future__ import annotations
@@ -164,7 +163,7 @@ class SubteamPlanner:
             [self._last.get(robot, np.zeros(2)) for robot in members], dtype=float
         ).reshape(n, 2)
         velocity = np.clip(velocity, q.u_lower, q.u_upper)
-        several = n > spec.size + spec.pinned
+        several = self._several(n)
         if self.skips(n):  # past the deadline already: no sub-team is planned
             self._steps += 1
             self._starved = True
@@ -234,9 +233,14 @@ class SubteamPlanner:
         """Whether a league of ``n`` robots goes unplanned this step (its robots coast or
         hold): more than one window, the deadline already passed, and planned the step
         before. Its route rows need not be computed."""
-        several = self._splits(n) and n > self.spec.size + self.spec.pinned
         end = time.perf_counter() + self._window_time
+        several = self._splits(n) and self._several(n)
         return several and self._late(end) and not self._starved
+
+    def _several(self, n: int) -> bool:
+        """Whether a league of ``n`` robots needs more than one window (the deadline bounds
+        it; a league of one window is always planned)."""
+        return n > self.spec.size + self.spec.pinned
 
     def _league_result(
         self,
