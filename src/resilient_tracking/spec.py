@@ -61,6 +61,8 @@ MAX_SEED = 2**63 - 1
 #: Largest ratio of lengths (a jammer strength δ2) and of a Mahalanobis distance: at 1e4 a jammer
 #: cuts every link and a region holds the whole workspace.
 MAX_RATIO = 1e4
+#: Most linearisations of one measurement update (the iterated EKF converges in a few).
+MAX_UPDATE_ITERATIONS = 100
 
 #: The limits above as the scenario reference lists them: name, value, unit, why.
 LIMITS: tuple[tuple[str, float, str, str], ...] = (
@@ -88,6 +90,7 @@ LIMITS: tuple[tuple[str, float, str, str], ...] = (
     ("MAX_STEP_COUNT", MAX_STEP_COUNT, "steps", "step counts: the longest episode"),
     ("MAX_RATIO", MAX_RATIO, "–", "jammer strength δ2, Mahalanobis sizes: all links, all space"),
     ("MAX_SEED", MAX_SEED, "–", "seeds: the largest signed 64-bit integer"),
+    ("MAX_UPDATE_ITERATIONS", MAX_UPDATE_ITERATIONS, "–", "EKF linearisations per update"),
 )
 
 #: A number inside a list: strict (an int or a float, never a bool or a string) even where the

@@ -26,6 +26,11 @@ measurements is compared with its league's *predicted* estimate (the prior of th
   ``[1, max_factor²]``. A detected robot's measurements are then used with ``λ̂ R``
   (:meth:`DegradationWatch.noise_scale`); covariance intersection fuses the estimates those
   updates make, so it needs nothing more.
+* **A careful update while degraded.** Noise several times the nominal one makes the first
+  linearisation of a range-bearing update, at the predicted position, a poor one: a league with
+  a robot found degraded updates with the iterated EKF (``update_iterations`` linearisations, each
+  at the last one's result) and the second-order term in the noise (``second_order``), as the
+  IMM's modes do. Leagues with no degraded robot keep the estimator's own update.
 * **What the team does with it.** The robot counts as the fraction ``1 − 1/λ̂`` of an attacked
   robot in the adaptive weights (the share of its information lost; :meth:`attacked_fraction`),
   and, if the team keeps zone knowledge, it learns a sensing zone (source ``degradation``) at
@@ -75,6 +80,10 @@ class DegradationWatchSettings:
     zone_std: float = 0.5
     #: whether a detection teaches the robot a sensing zone (teams that keep zone knowledge)
     learn_zone: bool = True
+    #: linearisations per update of a league with a robot found degraded (1: the paper's EKF)
+    update_iterations: int = 5
+    #: whether that update's noise carries the second-order term (the measurement's curvature)
+    second_order: bool = True
 
 
 class DegradationWatch:

@@ -83,6 +83,11 @@ class ExtendedKalmanFilter:
         self._a = model.transition
         self._q = model.process_noise
 
+    def with_update(self, iterations: int, second_order: bool) -> ExtendedKalmanFilter:
+        """The same filter with another measurement update: ``iterations`` linearisations, and
+        the second-order noise term or not."""
+        return ExtendedKalmanFilter(self.model, self.sensor, iterations, second_order)
+
     def predict(self, est: TargetEstimate) -> TargetEstimate:
         """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object)."""
         a = self._a

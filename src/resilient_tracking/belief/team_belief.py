@@ -84,6 +84,12 @@ class TeamBelief:
             self.degradation_watch = DegradationWatch(n_robots, watch)
         #: whether the estimator's update takes ``noise_scale`` (the EKF and the IMM do)
         self._scales_noise = "noise_scale" in inspect.signature(estimator.update).parameters
+        #: a league with a robot found degraded: the watch's careful update where the estimator
+        #: offers one (the EKF; the IMM's modes already update that way)
+        self._degraded_update = estimator.update
+        if watch is not None and hasattr(estimator, "with_update"):
+            careful = estimator.with_update(watch.update_iterations, watch.second_order)
+            self._degraded_update = careful.update
         if self.degradation_watch is not None and not self._scales_noise:
             log.warning(
                 "the estimator %s cannot scale a robot's noise: degraded sensors are found, "
@@ -160,8 +166,7 @@ class TeamBelief:
             if scale is None:
                 self.estimates[k] = self.estimator.update(prior, positions, measurements)
             else:  # an estimator that scales its noise (the EKF and the IMM do)
-                update = self.estimator.update
-                self.estimates[k] = update(  # type: ignore[call-arg]
+                self.estimates[k] = self._degraded_update(  # type: ignore[call-arg]
                     prior, positions, measurements, noise_scale=scale
                 )
         events += self._check_health(obs.step)

@@ -116,6 +116,8 @@ class FailureAwarePolicy(PlanningPolicy):
                 max_factor=watch.max_factor,
                 zone_radius=watch.zone_radius,
                 zone_std=watch.zone_std,
+                update_iterations=watch.update_iterations,
+                second_order=watch.second_order,
             )
             if watch.enabled
             else None,

@@ -13,6 +13,7 @@ from resilient_tracking.spec import (
     MAX_RATIO,
     MAX_SPEED,
     MAX_STEP_COUNT,
+    MAX_UPDATE_ITERATIONS,
     Length,
     PositiveLength,
     PositiveWeight,
@@ -263,6 +264,23 @@ class DegradationWatchParams(Strict):
         le=MAX_POSITION_STD,
         description="Spread of the centre of the zone learned where a degradation is found.",
         json_schema_extra={"unit": "m"},
+    )
+    update_iterations: int = Field(
+        5,
+        ge=1,
+        le=MAX_UPDATE_ITERATIONS,
+        description=(
+            "Linearisations per measurement update of a league with a robot found degraded (the"
+            " iterated EKF: each at the last one's result); 1: the estimator's own update."
+        ),
+        json_schema_extra={"unit": "count"},
+    )
+    second_order: bool = Field(
+        True,
+        description=(
+            "Whether that update's noise carries each channel's second-order term, so a large"
+            " noise next to a target does not make the update overconfident."
+        ),
     )
 
 

@@ -20,11 +20,9 @@ from resilient_tracking.spec import (
     MAX_POSITION_STD,
     MAX_SPEED,
     MAX_TURN_RATE,
+    MAX_UPDATE_ITERATIONS,
     Velocity2,
 )
-
-#: Most linearisations of one measurement update (the iterated EKF converges in a few).
-MAX_UPDATE_ITERATIONS = 100
 
 # ---------------------------------------------------------------------------- geometry
 
