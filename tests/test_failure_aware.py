@@ -202,6 +202,29 @@ def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
     assert set(guess.robot) == {1, 2} and (guess.step < int(inferred.step.item())).all()
 
 
+def test_with_signal_turns_a_robot_circles_its_attacker_once_then_tracks_alone():
+    """The circle is the signal (Alg. 3 reads it); after one turn around the attacker the
+    robot, whose sensor works, plans alone with its tracking term instead of circling on."""
+    s = overridden(circling_scenario(infer=True), {"policy.failure_aware.signal_turns": 1.0})
+    result = run_episode(s, seed=1)
+    events, robots = result["events"], result["robots"]
+    hit = events[(events.event == "attack") & (events.robot == 0)]
+    k0 = int(hit.step.item())
+    r0 = robots[(robots.robot == 0) & (robots.step > k0)]
+    circling = r0[r0["mode"] == "circular"].step.to_numpy()
+    alone = r0[r0["mode"] == "individual"].step.to_numpy()
+    assert len(circling) and len(alone) and set(r0["mode"]) == {"circular", "individual"}
+    assert circling.max() < alone.min() and alone.max() == robots.step.max()  # then for good
+    # one turn around the attacker's estimate (its clue: mu) before tracking
+    path = robots[(robots.robot == 0) & robots.step.between(k0, alone.min())]
+    offset = path[["x", "y"]].to_numpy() - np.array(s.zones[0].mu)
+    swept = np.abs(np.angle(np.exp(1j * np.diff(np.arctan2(offset[:, 1], offset[:, 0]))))).sum()
+    assert 2 * np.pi <= swept <= 2 * np.pi + 0.5
+    # the teammates still read the circle, before the robot leaves it
+    inferred = events[events.event == "zone_inferred"]
+    assert len(inferred) == 1 and int(inferred.step.item()) <= circling.max()
+
+
 def test_a_robot_whose_radio_a_known_zone_destroys_circles_it_too():
     """The zone is on the team's map from step 0 (``known``); its attack clue still tells the
     victim which zone struck it, so it circles that zone (Alg. 4) as without the map."""

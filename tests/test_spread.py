@@ -289,12 +289,16 @@ def test_the_announcement_is_heard_by_the_robots_linked_at_the_tick_before() -> 
     assert rows[0, -2] == pytest.approx(2.0 + QuarantineParams().margin)
 
 
-def test_jamming_and_temporary_failures_quarantine_nobody_and_a_quarantine_can_end() -> None:
+def test_jamming_degradations_and_temporary_failures_quarantine_nobody_and_one_can_end() -> None:
     positions = [[0.0, 0.0], [1.0, 0.0]]
     watch = QuarantineWatch(2, QuarantineParams(steps=5), comm_range=2.0)
     watch.observe(observation(0, positions, chain_links(2, [(0, 1)])))
     watch.observe(
         observation(1, positions, chain_links(2, [(0, 1)]), (Attack(1, clue(), "jamming"),))
+    )
+    # an announced degradation: a lossy radio that still works, with no compromise to pass on
+    watch.observe(
+        observation(1, positions, chain_links(2, [(0, 1)]), (Attack(1, clue(), "degradation"),))
     )
     watch.observe(
         observation(2, positions, chain_links(2, [(0, 1)]), (Attack(1, clue("temporary")),))

@@ -20,6 +20,8 @@ parameters (:meth:`FailureAwarePolicy.belief_needs`).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from resilient_tracking.belief.circle_fit import CircleGates
@@ -84,6 +86,8 @@ class FailureAwarePolicy(PlanningPolicy):
         self.exposure = ExposureLedger(params.exposure_horizon if params.hazard_guard else 0)
         #: circling direction (1 counter-clockwise, −1 clockwise) of each robot in Alg. 4
         self._circling: dict[int, float] = {}
+        #: per robot signalling its attacker: its last angle around it and the angle swept
+        self._swept: dict[int, tuple[float, float]] = {}
         #: targets each robot suspects of luring it into danger (with ``lure_guard``)
         self.suspects = (
             SuspectWatch(config.n_robots, params.lure, config.dt) if params.lure_guard else None
@@ -170,7 +174,13 @@ class FailureAwarePolicy(PlanningPolicy):
             robots = belief.leagues[k]
             # with zone motion, the zones as predicted at the planned step (x⁺)
             knowledge = belief.plan_knowledge(robots, obs.step + 1)
-            if len(robots) == 1 and obs.comm_persistence[robots[0]] == "permanent":
+            # a robot whose radio is destroyed circles its attacker (Alg. 4), with signal_turns
+            # only until the signal is given; then it tracks alone
+            if (
+                len(robots) == 1
+                and obs.comm_persistence[robots[0]] == "permanent"
+                and not self._signalled(robots[0], knowledge, obs)
+            ):
                 self._circle(robots[0], knowledge, obs, decision)
                 continue
             alone = len(robots) == 1
@@ -327,6 +337,23 @@ class FailureAwarePolicy(PlanningPolicy):
         self._circling[robot] = direction
         lower, upper = self.config.velocity_bounds([robot], obs.positions)
         decision.controls[robot] = np.clip(velocity, lower[0], upper[0])
+
+    def _signalled(self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation) -> bool:
+        """Whether the robot has circled its attacker ``signal_turns`` times (never without
+        ``signal_turns``: the paper's robot circles for good); the angle it swept around the
+        attacker's estimate is summed tick by tick."""
+        turns = self.params.signal_turns
+        if turns is None:
+            return False
+        attacker = self._attacker_estimate(knowledge)
+        if attacker is None:  # no clue of what hit it: nothing to signal
+            return True
+        offset = obs.positions[robot] - attacker.mean
+        angle = math.atan2(offset[1], offset[0])
+        last, swept = self._swept.get(robot, (angle, 0.0))
+        swept += abs(math.remainder(angle - last, math.tau))
+        self._swept[robot] = (angle, swept)
+        return swept >= turns * math.tau
 
     @staticmethod
     def _attacker_estimate(knowledge: KnowledgeBase) -> ZoneEstimate | None:

@@ -404,6 +404,18 @@ class FailureAwareParams(Strict):
         description="Margin added to the evasion circle radius.",
         json_schema_extra={"unit": "m"},
     )
+    signal_turns: float | None = Field(
+        None,
+        gt=0,
+        le=100,
+        description=(
+            "Beyond the paper: turns a robot whose radio a permanent comm zone destroyed circles"
+            " its attacker (the signal teammates read, Alg. 3) before it tracks alone again with"
+            " its sensor, keeping clear of the zones it knows; null, the default: it circles for"
+            " the rest of the episode, as the paper's Alg. 4 (docs/model.md §6.5)."
+        ),
+        json_schema_extra={"unit": "turns"},
+    )
     circle_fit: CircleFitParams = Field(
         CircleFitParams(),
         description="When a silent robot's observed path counts as a circle (Alg. 3).",

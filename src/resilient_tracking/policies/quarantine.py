@@ -29,6 +29,18 @@ log = logging.getLogger(__name__)
 
 #: ``since`` value of a robot not known compromised
 UNKNOWN = -1
+#: whether this process said that a quarantine without a radio range does nothing (once: a
+#: sweep that sets the quarantine on every scenario would say it once per run)
+_warned_no_range = False
+
+
+def _warn_no_range() -> None:
+    global _warned_no_range
+    _warned_no_range = True
+    log.warning(
+        "quarantine: a team with no radio range (comm_range) has no range to keep out of; "
+        "the quarantine does nothing there (said once)"
+    )
 
 
 class QuarantineWatch:
@@ -37,18 +49,21 @@ class QuarantineWatch:
     def __init__(self, n_robots: int, params: QuarantineParams, comm_range: float | None):
         self.params = params
         self.radius = None if comm_range is None else comm_range + params.margin
-        if self.radius is None:
-            log.warning("quarantine: the team has no radio range to keep out of; it does nothing")
+        if self.radius is None and not _warned_no_range:
+            _warn_no_range()
         #: ``(M, M)`` step from which robot ``i`` knows robot ``q`` compromised, else UNKNOWN
         self.since = np.full((n_robots, n_robots), UNKNOWN, dtype=int)
         self._last_links = np.zeros((n_robots, n_robots), dtype=bool)
 
     def observe(self, obs: TeamObservation) -> None:
-        """Record this tick's announcements: a permanent comm attack (hazard or spread), heard
+        """Record this tick's announcements: a permanent comm failure (hazard or spread), heard
         by the robots linked to its victim at the tick before."""
         for attack in obs.attacks:
             clue = attack.clue
-            if clue.kind != "comm" or clue.persistence != "permanent" or attack.cause == "jamming":
+            # jamming cuts links and a degradation leaves a radio lossy: neither compromises it
+            if clue.kind != "comm" or clue.persistence != "permanent":
+                continue
+            if attack.cause in ("jamming", "degradation"):
                 continue
             q = attack.robot
             heard = self._last_links[q] & (self.since[:, q] == UNKNOWN)

@@ -45,6 +45,7 @@ ADVERSARIAL_TEAM: dict[str, Any] = {
 #: these settings the team is the paper's.
 BEYOND_TEAM: dict[str, Any] = {
     "policy.failure_aware.quarantine": True,
+    "policy.failure_aware.signal_turns": 1.0,
     "policy.failure_aware.degradation_watch.enabled": True,
     "policy.failure_aware.zone_motion.enabled": True,
 }

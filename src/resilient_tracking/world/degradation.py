@@ -115,6 +115,10 @@ class Degradations:
 
     # ------------------------------------------------------------------ effects
 
+    def noise_factor(self, robot: int) -> float:
+        """The factor on the robot's measurement noise standard deviation now (1: nominal)."""
+        return self._combined("sensing", robot)[0]
+
     def _combined(self, kind: FailureKind, robot: int) -> tuple[float, float, float]:
         """Noise factor, bias and loss probability of a robot's degradations of ``kind``."""
         factor, bias, kept = 1.0, 0.0, 1.0
