@@ -25,6 +25,7 @@ from resilient_tracking.viz import (  # noqa: E402
     plot_trajectory_map,
     wants_log_scale,
 )
+from resilient_tracking.viz.sweeps import band  # noqa: E402
 
 N_STEPS = 50
 N_ROBOTS = 3
@@ -349,3 +350,16 @@ def test_sixty_four_robots_get_sixty_four_distinct_colours():
     for reserved in (SENSING_COLOR, COMM_COLOR):  # red and cyan keep their meanings
         assert np.linalg.norm(colors - np.array(to_rgb(reserved)), axis=1).min() > 0.15
     assert robot_color(0) == "tab:blue"  # the first ten are unchanged
+
+
+def test_a_positive_metrics_band_stops_at_the_smallest_value_seen() -> None:
+    """An MSE that is tiny in one seed and large in another has mean − std below zero; on a
+    log axis its band stops at the smallest value seen, not at the smallest float."""
+    values = np.array([[1e-4, 2e-4, 1e-3], [1.0, 2.0, 3.0]])
+    mean, low, high = band(values, positive=True)
+    np.testing.assert_allclose(mean, values.mean(axis=0))
+    np.testing.assert_allclose(high, mean + values.std(axis=0))
+    assert (low >= 1e-4).all() and (low <= mean).all()
+    effort, _, _ = band(values, positive=False)
+    _, signed_low, _ = band(-values, positive=False)
+    assert (signed_low < 0).all() and np.array_equal(effort, mean)

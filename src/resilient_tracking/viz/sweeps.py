@@ -79,6 +79,18 @@ def _stack(runs: Sequence[RunData], column: str) -> tuple[np.ndarray, np.ndarray
     return time, values
 
 
+def band(values: np.ndarray, positive: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean over seeds (rows) and the band mean ± 1 std; for a ``positive`` metric (a trace,
+    an MSE, drawn on a log axis when it spans decades) the band's lower edge stops at the
+    smallest positive value seen, so the axis keeps to the data's range."""
+    mean, std = values.mean(axis=0), values.std(axis=0)
+    low = mean - std
+    if positive:
+        seen = values[values > 0]
+        low = np.maximum(low, seen.min() if seen.size else np.finfo(float).tiny)
+    return mean, low, mean + std
+
+
 def plot_bands(
     groups: Mapping[str, Sequence[RunData]],
     path: Path,
@@ -97,10 +109,9 @@ def plot_bands(
             if not runs:
                 continue
             time, values = _stack(runs, column)
-            mean, std = values.mean(axis=0), values.std(axis=0)
+            mean, low, high = band(values, positive=column != "effort")
             (line,) = ax.plot(time, mean, lw=1.4, label=f"{name} (n={len(runs)})")
-            low = np.maximum(mean - std, np.finfo(float).tiny) if column != "effort" else mean - std
-            ax.fill_between(time, low, mean + std, color=line.get_color(), alpha=0.2, lw=0)
+            ax.fill_between(time, low, high, color=line.get_color(), alpha=0.2, lw=0)
             all_values.append(values)
         if (
             column in ("mse", "trace")
