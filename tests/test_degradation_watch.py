@@ -163,6 +163,25 @@ def test_a_league_with_a_robot_found_degraded_updates_with_the_iterated_second_o
     assert np.abs(own.mean - expected.mean).max() > 1e-9
 
 
+def test_a_known_noise_is_adopted_as_one_detection_and_then_followed() -> None:
+    """What a reference that knows the true noise hands the watch: the first scale is a
+    detection (event and zone clue), later ones only replace the scale."""
+    model = NearlyConstantVelocity(0.1, 0.05)
+    belief = TeamBelief(
+        4,
+        TargetEstimate.initial(np.zeros((3, 4)), 0.3, 0.1),
+        ExtendedKalmanFilter(model, SENSOR),
+        BeliefNeeds(zones=True, degradation=DegradationWatchSettings(SENSOR)),
+    )
+    watch = belief.degradation_watch
+    assert watch is not None
+    events = watch.adopt(belief, 50, 2, ROBOTS[2], 25.0)
+    assert [e.event for e in events] == ["degradation_detected"] and watch.detected_step[2] == 50
+    assert watch.factor()[2] == 5.0 and np.all(watch.factor()[[0, 1, 3]] == 1.0)
+    assert watch.adopt(belief, 51, 2, ROBOTS[2], 16.0) == [] and watch.factor()[2] == 4.0
+    assert [z.source for z in belief.knowledge[2].of_kind("sensing")] == ["degradation"]
+
+
 def test_no_false_alarm_on_nominal_sensors() -> None:
     """4 robots × 3000 steps of nominal measurements: no detection."""
     belief, events, _ = _watched_run(3000, onset=None, factor=1.0, seed=13)

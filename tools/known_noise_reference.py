@@ -27,7 +27,6 @@ import sys
 from collections.abc import Iterator
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 
@@ -50,12 +49,8 @@ def _oracle(watch: DegradationWatch, truth: Degradations) -> Any:
         events = []
         for row, robot in enumerate(robots):
             factor = truth.noise_factor(robot)  # truth: this is what makes it a reference
-            if factor <= 1.0:
-                continue
-            if watch.detected_step[robot] < 0:
-                watch._since[robot] = np.array([factor**2, 1.0])
-                events.append(watch._detect(belief, step, robot, positions[row]))
-            watch.scale[robot] = factor**2
+            if factor > 1.0:
+                events += watch.adopt(belief, step, robot, positions[row], factor**2)
         return events
 
     return observe

@@ -176,6 +176,20 @@ class DegradationWatch:
             self._since[others] = 0.0
         return events
 
+    def adopt(
+        self, belief: LearningBelief, step: int, robot: int, position: np.ndarray, scale: float
+    ) -> list[Event]:
+        """Take ``scale`` as the robot's noise variance factor from now on, a detection at
+        ``step`` if the robot was not found yet (its event, and its zone clue). For a
+        reference that knows the true noise instead of estimating it
+        (``tools/known_noise_reference.py``); a team never calls it."""
+        events = []
+        if self.detected_step[robot] < 0:
+            self._since[robot] = np.array([scale, 1.0])
+            events.append(self._detect(belief, step, robot, position))
+        self.scale[robot] = scale
+        return events
+
     # ------------------------------------------------------------------ pieces
 
     def _scale_of(self, sums: np.ndarray) -> float:
