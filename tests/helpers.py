@@ -9,6 +9,7 @@ import numpy as np
 
 from resilient_tracking import scenarios
 from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import (
     ProblemInputs,
@@ -109,3 +110,21 @@ def with_policy_needs(data: dict, policy: str) -> dict:
     for key, needed in POLICY_NEEDS.get(policy, {}).items():
         section[key] = {**section.get(key, {}), **needed}
     return data
+
+
+def healthy_observation(
+    step: int, positions: np.ndarray, measurements: np.ndarray, links: np.ndarray
+) -> TeamObservation:
+    """One tick of a team whose every sensor and radio works (``dt`` 0.1 s)."""
+    m = len(positions)
+    return TeamObservation(
+        step=step,
+        time=0.1 * step,
+        positions=positions,
+        measurements=measurements,
+        sensing_ok=np.ones(m, bool),
+        comm_ok=np.ones(m, bool),
+        sensing_persistence=("",) * m,
+        comm_persistence=("",) * m,
+        links=links,
+    )

@@ -13,7 +13,7 @@ import pytest
 from joblib import Parallel, delayed
 from scipy.stats import chi2
 
-from helpers import shipped
+from helpers import healthy_observation, shipped
 from resilient_tracking.belief.degradation_watch import DegradationWatch, DegradationWatchSettings
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
@@ -102,17 +102,7 @@ def _watched_run(
 
 def _observation(step: int, z: np.ndarray) -> TeamObservation:
     """The four robots of ``ROBOTS``, all sensing and linked, measuring ``z``."""
-    return TeamObservation(
-        step=step,
-        time=0.1 * step,
-        positions=ROBOTS,
-        measurements=z,
-        sensing_ok=np.ones(4, bool),
-        comm_ok=np.ones(4, bool),
-        sensing_persistence=("",) * 4,
-        comm_persistence=("",) * 4,
-        links=~np.eye(4, dtype=bool),
-    )
+    return healthy_observation(step, ROBOTS, z, ~np.eye(4, dtype=bool))
 
 
 def test_a_fivefold_noise_is_found_within_a_few_steps_and_estimated_near_five() -> None:

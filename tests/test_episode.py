@@ -9,6 +9,7 @@ import pytest
 from helpers import shipped
 from resilient_tracking.runs.records import ColumnTable, write_run
 from resilient_tracking.runs.schema import REPRODUCIBLE
+from resilient_tracking.scenario.overrides import every_zone_known
 from resilient_tracking.sim.episode import run_episode
 
 
@@ -30,14 +31,8 @@ def test_same_seed_same_tables_different_seed_different_draws(tmp_path):
         )
 
 
-def _known(scenario):
-    """``scenario`` with every zone marked ``known``."""
-    zones = [z.model_dump() | {"known": True} for z in scenario.zones]
-    return scenario.with_overrides(zones=zones)
-
-
 def test_known_zones_are_held_from_step_0_as_their_priors_never_their_true_centres():
-    scenario = _known(shipped("combined-temp").with_overrides(steps=3))
+    scenario = every_zone_known(shipped("combined-temp").with_overrides(steps=3))
     result = run_episode(scenario, policy="failure_aware", seed=5)
     first = result["knowledge"][result["knowledge"]["step"] == 0]
     assert sorted(zip(first.robot, first.zone, strict=True)) == [
@@ -62,7 +57,7 @@ def test_a_team_that_knows_the_zone_from_the_start_is_attacked_less():
     attacks = {}
     for seed in (1, 2, 3):
         learned = run_episode(scenario, seed=seed)
-        known = run_episode(_known(scenario), seed=seed)
+        known = run_episode(every_zone_known(scenario), seed=seed)
         attacks[seed] = (
             (learned["robots"]["sensing_ok"] == 0).sum(),
             (known["robots"]["sensing_ok"] == 0).sum(),

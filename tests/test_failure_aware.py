@@ -14,7 +14,7 @@ from resilient_tracking.planning.adaptation import adaptive_weights
 from resilient_tracking.policies import FailureAwarePolicy
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.scenario import parse_scenario
-from resilient_tracking.scenario.overrides import overridden
+from resilient_tracking.scenario.overrides import every_zone_known, overridden
 from resilient_tracking.sim.episode import initial_estimate, run_episode
 from resilient_tracking.team import Team
 from resilient_tracking.world import World
@@ -229,7 +229,7 @@ def test_a_robot_whose_radio_a_known_zone_destroys_circles_it_too():
     """The zone is on the team's map from step 0 (``known``); its attack clue still tells the
     victim which zone struck it, so it circles that zone (Alg. 4) as without the map."""
     s = circling_scenario(infer=False)
-    s = s.with_overrides(zones=[z.model_dump() | {"known": True} for z in s.zones])
+    s = every_zone_known(s)
     # the paper's constraint set: the league does not keep clear of the known zone's hazard
     s = overridden(s, {"policy.failure_aware.hazard_guard": False})
     result = run_episode(s, seed=1)

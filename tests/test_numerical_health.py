@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from helpers import shipped
+from helpers import healthy_observation, shipped
 from resilient_tracking.belief import health
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
@@ -135,17 +135,7 @@ def test_the_belief_predicts_each_league_once_per_tick():
     z = np.full((2, 2, 2), np.nan)
 
     def tick(step: int) -> TeamObservation:
-        return TeamObservation(
-            step=step,
-            time=0.1 * step,
-            positions=positions,
-            measurements=z,
-            sensing_ok=np.ones(2, bool),
-            comm_ok=np.ones(2, bool),
-            sensing_persistence=("", ""),
-            comm_persistence=("", ""),
-            links=np.ones((2, 2), bool),
-        )
+        return healthy_observation(step, positions, z, np.ones((2, 2), bool))
 
     for step in range(3):
         belief.update(tick(step))

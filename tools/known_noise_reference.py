@@ -34,7 +34,7 @@ from resilient_tracking import scenarios
 from resilient_tracking.belief.degradation_watch import DegradationWatch
 from resilient_tracking.experiments.generator import stored_beyond_suite
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.scenario.overrides import BEYOND_TEAM, overridden
+from resilient_tracking.scenario.overrides import BEYOND_TEAM, every_zone_known, overridden
 from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world.degradation import Degradations
 
@@ -63,8 +63,7 @@ def run(scenario: Scenario, team: str, seed: int, known_zones: bool) -> dict[str
     elif team == "known noise":
         scenario = overridden(scenario, {WATCH: True})
     if known_zones:
-        known = {f"zones.{i}.known": True for i in range(len(scenario.zones))}
-        scenario = overridden(scenario, known)
+        scenario = every_zone_known(scenario)
     stepper = EpisodeStepper(scenario, "failure_aware", seed)
     watch = stepper.team.belief.degradation_watch
     if team == "known noise":

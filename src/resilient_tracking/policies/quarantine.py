@@ -17,6 +17,7 @@ is compromised). Without a radio range there is no range to keep out of: the wat
 
 from __future__ import annotations
 
+import functools
 import logging
 
 import numpy as np
@@ -29,14 +30,12 @@ log = logging.getLogger(__name__)
 
 #: ``since`` value of a robot not known compromised
 UNKNOWN = -1
-#: whether this process said that a quarantine without a radio range does nothing (once: a
-#: sweep that sets the quarantine on every scenario would say it once per run)
-_warned_no_range = False
 
 
+@functools.cache
 def _warn_no_range() -> None:
-    global _warned_no_range
-    _warned_no_range = True
+    """Said once per process: a sweep that sets the quarantine on every scenario would say it
+    once per run."""
     log.warning(
         "quarantine: a team with no radio range (comm_range) has no range to keep out of; "
         "the quarantine does nothing there (said once)"
@@ -49,7 +48,7 @@ class QuarantineWatch:
     def __init__(self, n_robots: int, params: QuarantineParams, comm_range: float | None):
         self.params = params
         self.radius = None if comm_range is None else comm_range + params.margin
-        if self.radius is None and not _warned_no_range:
+        if self.radius is None:
             _warn_no_range()
         #: ``(M, M)`` step from which robot ``i`` knows robot ``q`` compromised, else UNKNOWN
         self.since = np.full((n_robots, n_robots), UNKNOWN, dtype=int)

@@ -17,6 +17,7 @@ from resilient_tracking.scenario.paths import set_path, set_paths
 __all__ = [
     "ADVERSARIAL_TEAM",
     "BEYOND_TEAM",
+    "every_zone_known",
     "PAPER_METHOD",
     "apply_overrides",
     "overridden",
@@ -57,6 +58,11 @@ def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: 
     that does not exist or of a value the schema refuses."""
     set_paths(data, overrides, source)
     return Scenario.parse(data, source)
+
+
+def every_zone_known(scenario: Scenario) -> Scenario:
+    """``scenario`` with every zone on the team's map from the start (``zones[i].known``)."""
+    return overridden(scenario, {f"zones.{i}.known": True for i in range(len(scenario.zones))})
 
 
 def overridden(
