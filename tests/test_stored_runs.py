@@ -121,6 +121,12 @@ def wait_for(condition, seconds: float) -> bool:
     return condition()
 
 
+def finished_runs(out: Path) -> list[Path]:
+    """Manifests of run folders renamed into place (a staging folder's name starts with a dot,
+    which pathlib's ``*`` matches too)."""
+    return list(out.glob("runs/*/*/seed-*/manifest.json"))
+
+
 def stop_group(proc: subprocess.Popen[str]) -> None:
     if proc.poll() is None:
         os.killpg(proc.pid, signal.SIGKILL)
@@ -147,7 +153,7 @@ def test_ctrl_c_and_a_killed_parent_leave_no_worker_and_keep_finished_runs(tmp_p
     argv = ("reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q")
     proc = rtrack(*argv, "--out", "res", cwd=tmp_path)
     try:
-        assert wait_for(lambda: list((tmp_path / "res").glob("runs/*/*/*/manifest.json")), 120)
+        assert wait_for(lambda: finished_runs(tmp_path / "res"), 120)
         workers = children_of(proc.pid)
         os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=60)
@@ -156,7 +162,7 @@ def test_ctrl_c_and_a_killed_parent_leave_no_worker_and_keep_finished_runs(tmp_p
         assert wait_for(lambda: not any(alive(w) for w in workers), 15)
     finally:
         stop_group(proc)
-    stored = list((tmp_path / "res").glob("runs/*/*/*/manifest.json"))
+    stored = finished_runs(tmp_path / "res")
     assert stored
     for manifest in stored:
         for name in REPRODUCIBLE:
