@@ -13,6 +13,8 @@ import pytest
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.catalog import (
     ADVERSARIAL,
+    ADVERSARIAL_SUITE_SEEDS,
+    ADVERSARIAL_SUITE_SIZE,
     SIX,
     Experiment,
     Variant,
@@ -22,6 +24,7 @@ from resilient_tracking.experiments.catalog import (
     tasks,
 )
 from resilient_tracking.experiments.claims import check
+from resilient_tracking.experiments.generator import SUITE_SEED, stored_adversarial_suite, suite
 from resilient_tracking.experiments.report import write_report
 from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
 from resilient_tracking.runs.schema import REPRODUCIBLE
@@ -214,14 +217,25 @@ def test_adversarial_experiment_runs_three_teams_on_each_adversarial_scenario():
     exp = catalog()["adversarial"]
     assert exp.seeds == 10
     cases = exp.generated()
-    assert [s.name for s, _ in cases] == list(ADVERSARIAL)
+    assert [s.name for s, _ in cases[: len(ADVERSARIAL)]] == list(ADVERSARIAL)
+    suite = cases[len(ADVERSARIAL) :]
+    assert [s.name for s, _ in suite] == [s.name for s in stored_adversarial_suite()]
+    assert len(suite) == ADVERSARIAL_SUITE_SIZE
     for scenario, variants in cases:
         teams = {v.tags["team"]: v for v in variants}
         assert set(teams) == {"vanilla", "paper", "extended"}
         assert teams["vanilla"].policy == "vanilla" and not teams["paper"].overrides
         arm = [t for t in tasks(exp) if t.variant == teams["extended"]][0]
-        assert arm.scenario.estimator.type == "imm"
+        assert arm.scenario.estimator.type == "adaptive"
         assert scenario.estimator.type == "ekf"
+    assert {v.max_seeds for _, variants in suite for v in variants} == {ADVERSARIAL_SUITE_SEEDS}
+    assert {v.tags["part"] for _, variants in suite for v in variants} == {"suite"}
+
+
+def test_the_stored_adversarial_suite_is_what_the_generator_draws():
+    # `python tools/generate_suite.py --adversarial` writes it again
+    head = [s.model_dump() for s in suite(SUITE_SEED, 2, adversarial=True)]
+    assert head == [s.model_dump() for s in stored_adversarial_suite(2)]
 
 
 def test_adversarial_figures_are_bands_per_scenario_of_its_three_teams(tmp_path):
@@ -231,7 +245,7 @@ def test_adversarial_figures_are_bands_per_scenario_of_its_three_teams(tmp_path)
     labels = [v.label for _, variants in exp.generated() for v in variants]
     jobs = figure_jobs(exp, {label: [] for label in labels}, pd.DataFrame(), tmp_path)
     bands = {job.path.name: job for job in jobs if job.path.name.startswith("bands-")}
-    assert set(bands) == {f"bands-{name}.png" for name in ADVERSARIAL}
+    assert set(bands) == {f"bands-{name}.png" for name in ADVERSARIAL}  # not the suite's
     teams = bands["bands-lure-comm.png"].args[0]
     assert set(teams) == {"lure-comm-vanilla", "lure-comm-paper", "lure-comm-extended"}
 
@@ -259,6 +273,29 @@ def test_adversarial_targets_fail_when_the_numbers_say_so():
     }
     evidence = [c.evidence for c in check(exp, rows)]
     assert "difference 95 % CI [" in evidence[0] and "lower in 2/2 seeds" in evidence[0]
+
+
+def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_wins():
+    exp = catalog()["adversarial"]
+    teams = ["vanilla", "paper", "extended"]
+    # g00: extended below both; g01: equal to the paper's team, below vanilla
+    rows = _summary(
+        tag_scenario=["g00"] * 3 + ["g01"] * 3,
+        tag_part=["suite"] * 6,
+        tag_team=teams * 2,
+        seed=[1] * 6,
+        trace=[3.0, 2.0, 1.0, 3.0, 1.0, 1.0],
+        mse=[1.0] * 6,
+        losses_known_permanent=[0] * 6,
+        losses_unknown_permanent=[0] * 6,
+    )
+    holds = {c.statement: c.holds for c in check(exp, rows)}
+    assert holds == {
+        "adversarial suite: the extended team has a lower mean trace than the paper's team in "
+        "at least 85% of the scenarios": False,  # 1 of 2
+        "adversarial suite: the extended team has a lower mean trace than vanilla in at least "
+        "85% of the scenarios": True,  # 2 of 2
+    }
 
 
 def test_the_combined_narrative_needs_a_sensing_robot_at_the_end_in_most_seeds():

@@ -5,11 +5,14 @@
     python tools/generate_suite.py --beyond   # the beyond benchmark's suite-beyond-2024.json
     python tools/generate_suite.py --beyond --check
     python tools/generate_suite.py --beyond --count   # the stored beyond suite's features
+    python tools/generate_suite.py --adversarial      # the adversarial benchmark's suite
+    python tools/generate_suite.py --adversarial --check
 
 The generator runs the vanilla team once per scenario to check that it meets every zone, so a
 suite depends on the planner as well as on the seed. The stored file pins it: the benchmark
-runs the same scenarios after any change, and ``tests/test_generalization.py`` and
-``tests/test_beyond.py`` say when the generator's output has drifted from it.
+runs the same scenarios after any change, and ``tests/test_generalization.py``,
+``tests/test_beyond.py`` and ``tests/test_reproduce.py`` say when the generator's output has
+drifted from it.
 """
 
 from __future__ import annotations
@@ -20,8 +23,9 @@ import logging
 import sys
 
 from resilient_tracking.experiments.beyond_features import feature_counts
-from resilient_tracking.experiments.catalog import SUITE_SIZE
+from resilient_tracking.experiments.catalog import ADVERSARIAL_SUITE_SIZE, SUITE_SIZE
 from resilient_tracking.experiments.generator import (
+    ADVERSARIAL_SUITE_PATH,
     BEYOND_SUITE_PATH,
     SUITE_PATH,
     SUITE_SEED,
@@ -37,6 +41,9 @@ def main() -> int:
         "--beyond", action="store_true", help="the beyond benchmark's suite (zone features)"
     )
     parser.add_argument(
+        "--adversarial", action="store_true", help="the adversarial benchmark's suite"
+    )
+    parser.add_argument(
         "--count", action="store_true", help="print the stored beyond suite's zone features"
     )
     args = parser.parse_args()
@@ -45,10 +52,15 @@ def main() -> int:
             print(f"{feature}: {n}")
         return 0
     logging.basicConfig(level=logging.INFO)
-    path = BEYOND_SUITE_PATH if args.beyond else SUITE_PATH
-    drawn = suite(SUITE_SEED, SUITE_SIZE, beyond=args.beyond)
+    if args.adversarial:
+        path = ADVERSARIAL_SUITE_PATH
+        drawn = suite(SUITE_SEED, ADVERSARIAL_SUITE_SIZE, adversarial=True)
+    else:
+        path = BEYOND_SUITE_PATH if args.beyond else SUITE_PATH
+        drawn = suite(SUITE_SEED, SUITE_SIZE, beyond=args.beyond)
     data = [s.model_dump(mode="json") for s in drawn]
-    head = {"seed": SUITE_SEED, **({"beyond": True} if args.beyond else {})}
+    kind = {"beyond": True} if args.beyond else {"adversarial": True} if args.adversarial else {}
+    head = {"seed": SUITE_SEED, **kind}
     text = json.dumps({**head, "scenarios": data}, indent=1) + "\n"
     if args.check:
         same = path.read_text(encoding="utf-8") == text

@@ -22,7 +22,7 @@ from resilient_tracking.observation import ZoneClue
 from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import POLICIES, Policy
 from resilient_tracking.rng import stream
-from resilient_tracking.scenario import ImmEstimatorSpec, Scenario
+from resilient_tracking.scenario import AdaptiveEstimatorSpec, ImmEstimatorSpec, Scenario
 from resilient_tracking.team_config import TeamConfig
 
 
@@ -41,9 +41,19 @@ def team_config(scenario: Scenario) -> TeamConfig:
 
 def make_estimator(scenario: Scenario, config: TeamConfig | None = None) -> Estimator:
     """The estimator the scenario's ``estimator`` section selects, with the team's sensor: the
-    paper's EKF of the team's target model, or the IMM of :mod:`~.belief.imm`."""
+    paper's EKF of the team's target model, the IMM of :mod:`~.belief.imm`, or that IMM over a
+    ladder of noise levels (the adaptive estimator)."""
     config = config or team_config(scenario)
     spec = scenario.estimator
+    if isinstance(spec, AdaptiveEstimatorSpec):
+        return InteractingMultipleModel.noise_levels(
+            scenario.dt,
+            spec.noise_levels(),
+            spec.switch_probability,
+            config.sensor,
+            spec.update_iterations,
+            spec.second_order,
+        )
     if isinstance(spec, ImmEstimatorSpec):
         return InteractingMultipleModel.quiet_and_manoeuvre(
             scenario.dt,

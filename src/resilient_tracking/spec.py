@@ -63,6 +63,8 @@ MAX_SEED = 2**63 - 1
 MAX_RATIO = 1e4
 #: Most linearisations of one measurement update (the iterated EKF converges in a few).
 MAX_UPDATE_ITERATIONS = 100
+#: Most process-noise levels of an adaptive estimator (each is one more filter per target).
+MAX_NOISE_LEVELS = 15
 
 #: The limits above as the scenario reference lists them: name, value, unit, why.
 LIMITS: tuple[tuple[str, float, str, str], ...] = (
@@ -91,6 +93,7 @@ LIMITS: tuple[tuple[str, float, str, str], ...] = (
     ("MAX_RATIO", MAX_RATIO, "–", "jammer strength δ2, Mahalanobis sizes: all links, all space"),
     ("MAX_SEED", MAX_SEED, "–", "seeds: the largest signed 64-bit integer"),
     ("MAX_UPDATE_ITERATIONS", MAX_UPDATE_ITERATIONS, "–", "EKF linearisations per update"),
+    ("MAX_NOISE_LEVELS", MAX_NOISE_LEVELS, "–", "process-noise levels: one filter per level"),
 )
 
 #: A number inside a list: strict (an int or a float, never a bool or a string) even where the

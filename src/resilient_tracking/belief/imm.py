@@ -106,6 +106,37 @@ class InteractingMultipleModel:
             second_order,
         )
 
+    @classmethod
+    def noise_levels(
+        cls,
+        dt: float,
+        accel_stds: Sequence[float],
+        switch_probability: float,
+        sensor: MeasurementModel,
+        iterations: int = 1,
+        second_order: bool = False,
+    ) -> InteractingMultipleModel:
+        """NCV modes on a ladder of process noises ``accel_stds`` (sorted), each moving to each
+        neighbouring level with ``switch_probability`` per step (a birth–death chain), every
+        level equally likely at the start: the mode probabilities learn a target's noise level
+        from its measurements, and follow it when it changes (adaptive process noise)."""
+        levels = sorted(float(s) for s in accel_stds)
+        m = len(levels)
+        transition = np.zeros((m, m))
+        for i in range(m):
+            for j in (i - 1, i + 1):
+                if 0 <= j < m:
+                    transition[i, j] = switch_probability
+            transition[i, i] = 1.0 - transition[i].sum()
+        return cls(
+            [NearlyConstantVelocity(dt, s) for s in levels],
+            transition,
+            np.full(m, 1.0 / m),
+            sensor,
+            iterations,
+            second_order,
+        )
+
     @property
     def n_modes(self) -> int:
         """Number of models ``M``."""

@@ -23,7 +23,11 @@ from typing import Any
 import yaml
 
 from resilient_tracking import scenarios
-from resilient_tracking.experiments.generator import stored_beyond_suite, stored_suite
+from resilient_tracking.experiments.generator import (
+    stored_adversarial_suite,
+    stored_beyond_suite,
+    stored_suite,
+)
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import (
@@ -242,29 +246,36 @@ def generalization_cases(
 ADVERSARIAL = ("evasive-open", "evasive-zones", "lure-sensing", "lure-comm")
 
 
+#: Scenarios of the stored adversarial suite in the ``adversarial`` experiment, and the seeds of
+#: each (its first ones).
+ADVERSARIAL_SUITE_SIZE = 30
+ADVERSARIAL_SUITE_SEEDS = 1
+
+
 def adversarial_cases(
-    names: Iterable[str] = ADVERSARIAL, scenario_dir: Path | None = None
+    names: Iterable[str] = ADVERSARIAL,
+    suite_size: int = ADVERSARIAL_SUITE_SIZE,
+    max_pairs: int | None = None,
+    suite_seeds: int = ADVERSARIAL_SUITE_SEEDS,
+    scenario_dir: Path | None = None,
 ) -> list[tuple[Scenario, tuple[Variant, ...]]]:
-    """The shipped adversarial scenarios, each with three arms: vanilla, the paper's
-    failure-aware team and the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`).
-    Arms are tagged with the scenario and the team (``vanilla``, ``paper``, ``extended``)."""
+    """The shipped adversarial scenarios (tagged ``part: shipped``), then the first
+    ``suite_size`` scenarios of the stored adversarial suite (of those with at most
+    ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
+    ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
+    the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`). Arms are tagged with
+    the scenario and the team (``vanilla``, ``paper``, ``extended``)."""
     folder = scenario_dir or default_scenario_dir()
-    arms: tuple[tuple[str, str, Mapping[str, Any]], ...] = (
-        ("vanilla", "vanilla", {}),
-        ("paper", "failure_aware", {}),
-        ("extended", "failure_aware", ADVERSARIAL_TEAM),
-    )
     out = []
     for name in names:
         path = folder / f"{name}.yaml"
         scenario = Scenario.parse(yaml.safe_load(path.read_text()), path.name)
-        variants = tuple(
-            Variant(
-                f"{name}-{team}", policy, dict(overrides), tags={"scenario": name, "team": team}
-            )
-            for team, policy, overrides in arms
-        )
-        out.append((scenario, variants))
+        out.append((scenario, _three_teams(name, ADVERSARIAL_TEAM, "shipped")))
+    generated = stored_adversarial_suite()
+    if max_pairs is not None:
+        generated = [s for s in generated if len(s.robots) * len(s.targets) <= max_pairs]
+    for scenario in generated[:suite_size]:
+        out.append((scenario, _three_teams(scenario.name, ADVERSARIAL_TEAM, "suite", suite_seeds)))
     return out
 
 
@@ -418,10 +429,15 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             kind="adversarial",
             description=(
                 "targets that evade or lure (docs/model.md §1): vanilla, the paper's "
-                "failure-aware team and the team extended for them (the IMM estimator), on "
+                "failure-aware team and the team extended for them (the adaptive estimator), on "
                 + ", ".join(f"`{n}`" for n in ADVERSARIAL)
+                + f", and on {QUICK_SUITE if quick else ADVERSARIAL_SUITE_SIZE} scenarios of the "
+                f"stored adversarial suite{' with small teams' if quick else ''} "
+                f"({ADVERSARIAL_SUITE_SEEDS} seed each)"
             ),
-            generated=adversarial_cases,
+            generated=partial(adversarial_cases, ADVERSARIAL, QUICK_SUITE, QUICK_MAX_PAIRS)
+            if quick
+            else adversarial_cases,
         ),
         Experiment(
             "beyond",

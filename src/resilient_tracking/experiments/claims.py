@@ -220,12 +220,15 @@ def _extended_lower(exp: Experiment, name: str, rows: pd.DataFrame) -> list[Clai
 
 
 def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
-    """Targets of the ``adversarial`` experiment, per scenario: the extended team has a lower
-    mean trace and MSE than the paper's team and than vanilla; with lures, its permanent losses
-    per run are at most :data:`LURE_LOSS_SHARE` of the paper team's at a trace at most
-    :data:`LURE_TRACE_FACTOR` times its."""
+    """Targets of the ``adversarial`` experiment, per shipped scenario (``tag_part``
+    ``shipped``): the extended team has a lower mean trace and MSE than the paper's team and
+    than vanilla; with lures, its permanent losses per run are at most :data:`LURE_LOSS_SHARE`
+    of the paper team's at a trace at most :data:`LURE_TRACE_FACTOR` times its. On the stored
+    adversarial suite (``suite``) it has the lower mean trace in at least
+    :data:`ADVERSARIAL_SUITE_TARGET` of the scenarios."""
+    part = s["tag_part"] if "tag_part" in s else pd.Series("shipped", index=s.index)
     out = []
-    for name, rows in s.groupby("tag_scenario", sort=False):
+    for name, rows in s[part == "shipped"].groupby("tag_scenario", sort=False):
         out += _extended_lower(exp, str(name), rows)
         if str(name).startswith("lure"):
             losses = rows.losses_known_permanent + rows.losses_unknown_permanent
@@ -243,6 +246,35 @@ def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
                     f"{trace_paper:.4g}",
                 )
             )
+    out += _suite_claims(exp, s[part == "suite"], "adversarial", ADVERSARIAL_SUITE_TARGET)
+    return out
+
+
+#: The share of the stored adversarial suite's scenarios in which the extended team is to have
+#: the lower mean trace than the paper's team and than vanilla (docs/adversarial.md).
+ADVERSARIAL_SUITE_TARGET = {"paper": 0.85, "vanilla": 0.85}
+
+
+def _suite_claims(
+    exp: Experiment, suite: pd.DataFrame, label: str, targets: dict[str, float]
+) -> list[Claim]:
+    """Per other team, whether the extended team has the lower mean trace in at least
+    ``targets[other]`` of the scenarios of ``suite`` (none when it has no runs)."""
+    if not len(suite):
+        return []
+    out = []
+    for other, who in OTHER_TEAMS:
+        wins, evidence = suite_wins(suite, other)
+        target = targets[other]
+        out.append(
+            Claim(
+                exp.name,
+                f"{label} suite: the extended team has a lower mean trace than {who} in "
+                f"at least {target:.0%} of the scenarios",
+                wins.n > 0 and wins.rate >= target,
+                evidence,
+            )
+        )
     return out
 
 
@@ -279,20 +311,7 @@ def beyond_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     out = []
     for name, rows in s[part == "shipped"].groupby("tag_scenario", sort=False):
         out += _extended_lower(exp, str(name), rows)
-    suite = s[part == "suite"]
-    if len(suite):
-        for other, who in OTHER_TEAMS:
-            wins, evidence = suite_wins(suite, other)
-            target = BEYOND_SUITE_TARGETS[other]
-            out.append(
-                Claim(
-                    exp.name,
-                    f"beyond suite: the extended team has a lower mean trace than {who} in "
-                    f"at least {target:.0%} of the scenarios",
-                    wins.n > 0 and wins.rate >= target,
-                    evidence,
-                )
-            )
+    out += _suite_claims(exp, s[part == "suite"], "beyond", BEYOND_SUITE_TARGETS)
     return out
 
 

@@ -36,6 +36,8 @@ the robots' 1 m/s) or a ``lure`` into one of its zones (speed 0.25–0.4 m/s, fi
 lingering 3–8 s, half of them again every 10–20 s), the lanes staying their base motions. These
 draws come from their own stream, ``generator_adversarial``, so an adversarial scenario is the
 plain one of the same seed and index with its targets wrapped, and the plain suite is unchanged.
+The ``adversarial`` benchmark's suite is stored (:data:`ADVERSARIAL_SUITE_PATH`,
+:func:`stored_adversarial_suite`).
 
 **Beyond the paper** (``beyond=True``, ``rtrack generate --beyond``): each scenario is drawn as
 above, then its zones draw the world's features beyond the paper (moving, degrading, spreading,
@@ -74,6 +76,9 @@ SUITE_SEED = 2024
 SUITE_PATH = Path(__file__).with_name(f"suite-{SUITE_SEED}.json")
 #: Where the ``beyond`` benchmark's suite (drawn from :data:`SUITE_SEED` with ``beyond``) is.
 BEYOND_SUITE_PATH = Path(__file__).with_name(f"suite-beyond-{SUITE_SEED}.json")
+#: Where the ``adversarial`` benchmark's suite (drawn from :data:`SUITE_SEED` with
+#: ``adversarial``) is.
+ADVERSARIAL_SUITE_PATH = Path(__file__).with_name(f"suite-adversarial-{SUITE_SEED}.json")
 DT = 0.1
 STEPS = 300
 WORKSPACE = {"xmin": -5.0, "xmax": 5.0, "ymin": -4.0, "ymax": 4.0}
@@ -385,6 +390,14 @@ def stored_suite(n: int | None = None) -> list[Scenario]:
     """The first ``n`` (default all) scenarios of the fixed suite, as written to
     :data:`SUITE_PATH` by ``tools/generate_suite.py`` from ``suite(SUITE_SEED)``."""
     data = json.loads(SUITE_PATH.read_text(encoding="utf-8"))
+    return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]
+
+
+def stored_adversarial_suite(n: int | None = None) -> list[Scenario]:
+    """The first ``n`` (default all) scenarios of the ``adversarial`` benchmark's suite, as
+    written to :data:`ADVERSARIAL_SUITE_PATH` by ``tools/generate_suite.py --adversarial`` from
+    ``suite(SUITE_SEED, adversarial=True)``."""
+    data = json.loads(ADVERSARIAL_SUITE_PATH.read_text(encoding="utf-8"))
     return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]
 
 

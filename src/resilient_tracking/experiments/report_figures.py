@@ -27,7 +27,13 @@ from typing import Any
 import pandas as pd
 
 from resilient_tracking import __version__, interrupts
-from resilient_tracking.experiments.catalog import BEYOND, RISK_LEVELS, Experiment, Task
+from resilient_tracking.experiments.catalog import (
+    ADVERSARIAL,
+    BEYOND,
+    RISK_LEVELS,
+    Experiment,
+    Task,
+)
 from resilient_tracking.experiments.sweep import run_dir
 from resilient_tracking.runs.folders import write_text_atomic
 from resilient_tracking.runs.reading import RunData
@@ -93,9 +99,10 @@ def figure_jobs(
             )
         )
         return jobs
-    if exp.kind == "beyond":  # the shipped scenarios' runs only; the suite's are many
-        first = {k: v for k, v in first.items() if _scenario_of(k) in BEYOND}
-        runs = {k: v for k, v in runs.items() if _scenario_of(k) in BEYOND}
+    shipped = {"beyond": BEYOND, "adversarial": ADVERSARIAL}.get(exp.kind)
+    if shipped is not None:  # the shipped scenarios' runs only; the suite's are many
+        first = {k: v for k, v in first.items() if _scenario_of(k) in shipped}
+        runs = {k: v for k, v in runs.items() if _scenario_of(k) in shipped}
     for label, run in first.items():
         jobs.append(
             FigureJob(

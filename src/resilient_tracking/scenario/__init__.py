@@ -56,6 +56,7 @@ from resilient_tracking.scenario.model import (
 from resilient_tracking.scenario.overrides import apply_overrides, overridden
 from resilient_tracking.scenario.policies import PolicySpec
 from resilient_tracking.scenario.world_specs import (
+    AdaptiveEstimatorSpec,
     Circle,
     ConstantVelocity,
     EstimatorSpec,
@@ -120,6 +121,7 @@ __all__ = [
     "Sensor",
     "EstimatorSpec",
     "ImmEstimatorSpec",
+    "AdaptiveEstimatorSpec",
     "HazardSpec",
     "GaussianHazard",
     "DiskHazard",

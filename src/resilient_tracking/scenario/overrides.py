@@ -34,11 +34,11 @@ PAPER_METHOD: dict[str, Any] = {
     "policy.failure_aware.silence_std": 0.3,
 }
 
-#: The failure-aware team extended for adversarial targets (docs/model.md §4.1), by dotted path:
-#: the interacting multiple model estimator for targets that manoeuvre. Without these settings
-#: the team is the paper's.
+#: The failure-aware team extended for adversarial targets (docs/model.md §4.2), by dotted path:
+#: the adaptive estimator, which learns each target's process noise. Without these settings the
+#: team is the paper's.
 ADVERSARIAL_TEAM: dict[str, Any] = {
-    "estimator.type": "imm",
+    "estimator.type": "adaptive",
 }
 
 #: The failure-aware team extended for the world's features beyond the paper (docs/beyond.md),

@@ -11,13 +11,16 @@ from pydantic import (
     Field,
     SerializeAsAny,
     Tag,
+    model_validator,
 )
 
 from resilient_tracking.models.sensor import SensorSpec
 from resilient_tracking.scenario.base import Coordinate, Strict, Vec2, plugin_spec
 from resilient_tracking.spec import (
     MAX_ACCEL,
+    MAX_NOISE_LEVELS,
     MAX_POSITION_STD,
+    MAX_RATIO,
     MAX_SPEED,
     MAX_TURN_RATE,
     MAX_UPDATE_ITERATIONS,
@@ -234,7 +237,30 @@ class EstimatorSpec(_EstimatorBase):
     )
 
 
-class ImmEstimatorSpec(_EstimatorBase):
+class _MultipleModelBase(_EstimatorBase):
+    """What a multiple-model estimator reads besides its models: how its modes are updated."""
+
+    update_iterations: int = Field(
+        5,
+        ge=1,
+        le=MAX_UPDATE_ITERATIONS,
+        description=(
+            "Linearisations per measurement update of each mode (the iterated EKF); 1: the "
+            "paper's EKF update."
+        ),
+        json_schema_extra={"unit": "count"},
+    )
+    second_order: bool = Field(
+        True,
+        description=(
+            "Whether the modes' measurement noise carries its second-order term, so a "
+            "measurement taken within the estimate's spread (a robot next to the target) counts "
+            "for little; false: the paper's EKF update."
+        ),
+    )
+
+
+class ImmEstimatorSpec(_MultipleModelBase):
     """An interacting multiple model estimator for manoeuvring targets: a quiet
     nearly-constant-velocity model (``accel_std``) and a manoeuvre model, switching by a Markov
     chain (docs/model.md §4)."""
@@ -264,24 +290,63 @@ class ImmEstimatorSpec(_EstimatorBase):
         ),
         json_schema_extra={"unit": "per step"},
     )
-    update_iterations: int = Field(
+
+
+class AdaptiveEstimatorSpec(_MultipleModelBase):
+    """An estimator that learns each target's process noise: nearly-constant-velocity models on
+    a geometric ladder of noise levels around ``accel_std``, weighed by how well each explains
+    the measurements (an IMM over the levels, docs/model.md §4.2)."""
+
+    type: Literal["adaptive"] = Field(description="Selects this estimator.")
+    accel_std: float = Field(
+        0.2,
+        gt=0,
+        le=MAX_ACCEL,
+        description="White-acceleration noise of the middle level, per axis.",
+        json_schema_extra={"unit": "m/s²"},
+    )
+    levels: int = Field(
         5,
         ge=1,
-        le=MAX_UPDATE_ITERATIONS,
+        le=MAX_NOISE_LEVELS,
         description=(
-            "Linearisations per measurement update of each mode (the iterated EKF); 1: the "
-            "paper's EKF update."
+            "Number of noise levels: accel_std · spacing^(i − (levels − 1)/2) for i = 0 … "
+            "levels − 1; 1: the EKF."
         ),
         json_schema_extra={"unit": "count"},
     )
-    second_order: bool = Field(
-        True,
-        description=(
-            "Whether the modes' measurement noise carries its second-order term, so a "
-            "measurement taken within the estimate's spread (a robot next to the target) counts "
-            "for little; false: the paper's EKF update."
-        ),
+    spacing: float = Field(
+        2.0,
+        gt=1,
+        le=MAX_RATIO,
+        description="Ratio between the noise of neighbouring levels.",
+        json_schema_extra={"unit": "–"},
     )
+    switch_probability: float = Field(
+        0.02,
+        ge=0,
+        le=0.5,
+        description=(
+            "Probability per step of moving to each neighbouring level; every level starts "
+            "equally likely."
+        ),
+        json_schema_extra={"unit": "per step"},
+    )
+
+    @model_validator(mode="after")
+    def _levels_stay_finite(self) -> AdaptiveEstimatorSpec:
+        top = self.accel_std * self.spacing ** ((self.levels - 1) / 2)
+        if top > MAX_ACCEL:
+            raise ValueError(
+                f"levels: the highest level's accel_std · spacing^((levels − 1)/2) = {top:.3g} "
+                f"m/s² is above {MAX_ACCEL:g}"
+            )
+        return self
+
+    def noise_levels(self) -> list[float]:
+        """The levels' white-acceleration noise, lowest first."""
+        half = (self.levels - 1) / 2
+        return [self.accel_std * self.spacing ** (i - half) for i in range(self.levels)]
 
 
 def _estimator_type(value: object) -> object:
@@ -293,10 +358,12 @@ def _estimator_type(value: object) -> object:
 
 #: The robots' estimator, selected by its ``type``; a section without one is the paper's EKF.
 Estimator = Annotated[
-    Annotated[EstimatorSpec, Tag("ekf")] | Annotated[ImmEstimatorSpec, Tag("imm")],
+    Annotated[EstimatorSpec, Tag("ekf")]
+    | Annotated[ImmEstimatorSpec, Tag("imm")]
+    | Annotated[AdaptiveEstimatorSpec, Tag("adaptive")],
     Discriminator(
         _estimator_type,
         custom_error_type="estimator_type",
-        custom_error_message="type must be 'ekf' (the default) or 'imm'",
+        custom_error_message="type must be 'ekf' (the default), 'imm' or 'adaptive'",
     ),
 ]
