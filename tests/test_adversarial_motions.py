@@ -453,3 +453,14 @@ def test_an_adversarial_suite_is_the_plain_suite_with_targets_wrapped(tmp_path):
     written = load_scenario(tmp_path / "g00.yaml")
     assert written.model_dump() == adversarial[0].model_dump()
     assert "--adversarial" in (tmp_path / "g00.yaml").read_text().splitlines()[0]
+
+
+def test_rtrack_generate_adversarial_writes_the_stored_adversarial_suite(tmp_path):
+    from resilient_tracking.cli import main
+    from resilient_tracking.experiments.generator import stored_adversarial_suite
+    from resilient_tracking.scenario import load_scenario
+
+    assert main(["generate", "-n", "2", "--adversarial", "--out", str(tmp_path), "-q"]) == 0
+    written = [load_scenario(tmp_path / f"g{i:02d}.yaml") for i in range(2)]
+    stored = stored_adversarial_suite(2)
+    assert [s.model_dump() for s in written] == [s.model_dump() for s in stored]

@@ -410,6 +410,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from resilient_tracking.experiments.generator import (
         SUITE_SEED,
         drawn,
+        stored_adversarial_suite,
         stored_beyond_suite,
         stored_suite,
     )
@@ -433,8 +434,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
         return 1
     seed = SUITE_SEED if args.seed is None else args.seed
     stored = []
-    if seed == SUITE_SEED and not args.adversarial:
-        stored = stored_beyond_suite(args.n) if args.beyond else stored_suite(args.n)
+    if seed == SUITE_SEED and not (args.adversarial and args.beyond):
+        if args.adversarial:
+            stored = stored_adversarial_suite(args.n)
+        else:
+            stored = stored_beyond_suite(args.n) if args.beyond else stored_suite(args.n)
     scenarios = (
         stored if len(stored) == args.n else drawn(seed, args.n, args.adversarial, args.beyond)
     )
