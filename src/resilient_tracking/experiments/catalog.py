@@ -265,18 +265,9 @@ def adversarial_cases(
     ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
     the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`). Arms are tagged with
     the scenario and the team (``vanilla``, ``paper``, ``extended``)."""
-    folder = scenario_dir or default_scenario_dir()
-    out = []
-    for name in names:
-        path = folder / f"{name}.yaml"
-        scenario = Scenario.parse(yaml.safe_load(path.read_text()), path.name)
-        out.append((scenario, _three_teams(name, ADVERSARIAL_TEAM, "shipped")))
-    generated = stored_adversarial_suite()
-    if max_pairs is not None:
-        generated = [s for s in generated if len(s.robots) * len(s.targets) <= max_pairs]
-    for scenario in generated[:suite_size]:
-        out.append((scenario, _three_teams(scenario.name, ADVERSARIAL_TEAM, "suite", suite_seeds)))
-    return out
+    shipped = _shipped(names, scenario_dir)
+    generated = _small(stored_adversarial_suite(), max_pairs)[:suite_size]
+    return _with_three_teams(shipped, generated, ADVERSARIAL_TEAM, suite_seeds)
 
 
 #: The shipped scenarios of the world's features beyond the paper (docs/model.md §2).
@@ -326,18 +317,36 @@ def beyond_cases(
     ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
     ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
     the extended team (:data:`BEYOND_TEAM`)."""
+    shipped = _shipped(names, scenario_dir)
+    generated = _small(stored_beyond_suite(), max_pairs)[:suite_size]
+    return _with_three_teams(shipped, generated, BEYOND_TEAM, suite_seeds)
+
+
+def _shipped(names: Iterable[str], scenario_dir: Path | None) -> list[Scenario]:
+    """The shipped scenarios ``names`` (from ``scenario_dir`` if given)."""
     folder = scenario_dir or default_scenario_dir()
-    out = []
-    for name in names:
-        path = folder / f"{name}.yaml"
-        scenario = Scenario.parse(yaml.safe_load(path.read_text()), path.name)
-        out.append((scenario, _three_teams(name, BEYOND_TEAM, "shipped")))
-    generated = stored_beyond_suite()
-    if max_pairs is not None:
-        generated = [s for s in generated if len(s.robots) * len(s.targets) <= max_pairs]
-    for scenario in generated[:suite_size]:
-        out.append((scenario, _three_teams(scenario.name, BEYOND_TEAM, "suite", suite_seeds)))
-    return out
+    paths = [folder / f"{name}.yaml" for name in names]
+    return [Scenario.parse(yaml.safe_load(p.read_text()), p.name) for p in paths]
+
+
+def _small(scenarios: list[Scenario], max_pairs: int | None) -> list[Scenario]:
+    """Those of ``scenarios`` with at most ``max_pairs`` robot-target pairs (all if None)."""
+    if max_pairs is None:
+        return scenarios
+    return [s for s in scenarios if len(s.robots) * len(s.targets) <= max_pairs]
+
+
+def _with_three_teams(
+    shipped: list[Scenario],
+    generated: list[Scenario],
+    extended: Mapping[str, Any],
+    suite_seeds: int,
+) -> list[tuple[Scenario, tuple[Variant, ...]]]:
+    """Each shipped scenario (``part: shipped``) and each generated one (``part: suite``, on its
+    first ``suite_seeds`` seeds) with the three teams of :func:`_three_teams`."""
+    return [(s, _three_teams(s.name, extended, "shipped")) for s in shipped] + [
+        (s, _three_teams(s.name, extended, "suite", suite_seeds)) for s in generated
+    ]
 
 
 SIX = ("sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm")
