@@ -191,3 +191,28 @@ def test_lock_files_of_killed_run_writes_are_removed_by_the_next_sweep(tmp_path)
     run_sweep(todo, tmp_path)
     assert not stale.exists() and mine.exists()
     assert not list((tmp_path / "runs").glob("*/*/.*"))
+
+
+def test_run_nees_tool_averages_each_variants_stored_runs(tmp_path, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("run_nees", ROOT / "tools" / "run_nees.py")
+    assert spec is not None and spec.loader is not None
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+
+    todo = tiny_tasks()
+    run_sweep(todo, tmp_path)
+    variant = run_dir(tmp_path, todo[0]).parent
+    expected = []
+    for run in sorted(variant.glob("seed-*")):
+        t = pd.read_parquet(run / "targets.parquet")
+        expected.append(((t.x - t.est_x) ** 2 / t.var_x + (t.y - t.est_y) ** 2 / t.var_y).mean())
+    assert tool.main([str(variant.parent), variant.name]) == 0
+    row = [
+        line
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith(f"| {variant.name} ")
+    ]
+    assert row == [row[0]] and f"| {sum(expected) / len(expected):.2f} |" in row[0]
+    assert tool.main([str(variant.parent), "no-such-scenario"]) == 1
