@@ -1,0 +1,115 @@
+"""Reference measurement: what the lure guard would save if the team knew which targets lure
+(docs/adversarial.md, *What does not work yet*).
+
+The extended team (the adaptive estimator) with the lure guard, whose suspicion is replaced by
+the truth: every lure target is suspect from the first tick (``always``), or exactly while it
+is on a trip into its zone or lingering there (``trip``). Its league keeps ``standoff`` from a
+suspect target, as the belief-only guard does. Reading the world is what makes it a reference:
+no cue from the team's own estimate can know more, so a stand-off that misses the lure-loss
+target here misses it for any suspicion the team could compute.
+
+    python tools/lure_oracle_reference.py lure-sensing lure-comm --seeds 1-10
+    python tools/lure_oracle_reference.py lure-sensing --standoffs 1.5,2.0,2.5 --oracle trip
+
+Prints, per scenario, oracle and stand-off, the mean over seeds of the team trace, the MSE and
+the permanent losses per run, beside the extended team without a guard.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from resilient_tracking import scenarios
+from resilient_tracking.policies.suspects import SuspectWatch
+from resilient_tracking.scenario import load_scenario
+from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, overridden
+from resilient_tracking.sim.episode import EpisodeStepper
+from resilient_tracking.world import World
+
+GUARD = "policy.failure_aware.lure_guard"
+STANDOFF = "policy.failure_aware.lure.standoff"
+#: the lure motion's modes on a trip: heading for the zone, holding there
+ON_TRIP = ("go", "linger")
+
+
+def _truth(world: World, oracle: str) -> np.ndarray:
+    """Which targets the oracle suspects now (truth: this is what makes it a reference)."""
+    if oracle == "always":
+        return np.array([t.spec.motion.type == "lure" for t in world.targets])
+    return np.array([getattr(t.motion, "mode", "") in ON_TRIP for t in world.targets])
+
+
+def _oracle(watch: SuspectWatch, world: World, oracle: str) -> Any:
+    """``watch.observe`` with its suspicion replaced by the truth after each call."""
+    observe = watch.observe
+
+    def observed(step, robots, estimate, zone_rows):  # type: ignore[no-untyped-def]
+        events = observe(step, robots, estimate, zone_rows)
+        watch.suspect[:, :] = _truth(world, oracle)[None, :]
+        return events
+
+    return observed
+
+
+def run(name: str, seed: int, oracle: str, standoff: float | None) -> dict[str, float]:
+    """One episode; its mean trace, MSE and permanent losses."""
+    settings: dict[str, Any] = dict(ADVERSARIAL_TEAM)
+    if standoff is not None:
+        settings |= {GUARD: True, STANDOFF: standoff}
+    scenario = overridden(load_scenario(scenarios.resolve(name)), settings)
+    stepper = EpisodeStepper(scenario, "failure_aware", seed)
+    watch = getattr(stepper.team.policy, "suspects", None)
+    if watch is not None:
+        watch.observe = _oracle(watch, stepper.world, oracle)  # type: ignore[method-assign]
+    for _ in range(scenario.steps):
+        stepper.sense()
+        stepper.act()
+    tables = stepper.result(0.0).tables
+    events = tables["events"]
+    attacks = events[events["event"].astype(str) == "attack"]
+    losses = int((attacks["persistence"].astype(str) == "permanent").sum())
+    team = tables["team"]
+    return {"trace": float(team.trace.mean()), "mse": float(team.mse.mean()), "losses": losses}
+
+
+def _seeds(text: str) -> list[int]:
+    lo, _, hi = text.partition("-")
+    return list(range(int(lo), int(hi or lo) + 1))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("scenarios", nargs="+", help="shipped names or scenario files")
+    parser.add_argument("--seeds", default="1-10", help="A-B (default 1-10)")
+    parser.add_argument("--standoffs", default="1.5,2.0,2.5", help="comma-separated, m")
+    parser.add_argument("--oracle", choices=("always", "trip", "both"), default="both")
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args(argv)
+    seeds = _seeds(args.seeds)
+    oracles = ("always", "trip") if args.oracle == "both" else (args.oracle,)
+    cases: list[tuple[str, float | None]] = [("none", None)]
+    cases += [(o, float(s)) for o in oracles for s in args.standoffs.split(",")]
+    print("| scenario | suspects | stand-off (m) | trace | MSE | permanent losses per run |")
+    print("|---|---|---|---|---|---|")
+    for name in args.scenarios:
+        for oracle, standoff in cases:
+            rows = Parallel(n_jobs=args.jobs)(
+                delayed(run)(name, seed, oracle, standoff) for seed in seeds
+            )
+            mean = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
+            who = "no guard" if standoff is None else f"every lure, {oracle}"
+            shown = "–" if standoff is None else f"{standoff:g}"
+            print(
+                f"| {name} | {who} | {shown} | {mean['trace']:.4f} | {mean['mse']:.4f} | "
+                f"{mean['losses']:.2f} |"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
