@@ -371,11 +371,14 @@ def test_quick_reproduction_reports_the_generalization_targets(quick_claims):
 
 @pytest.mark.slow
 def test_quick_reproduction_reports_the_adversarial_targets(quick_claims):
-    """The adversarial scenarios run in `all` and their targets are decided (reported, not
-    asserted: the targets are checked over ten seeds, not the quick run's two)."""
+    """The adversarial experiment runs in `all` on its four shipped scenarios and a few suite
+    scenarios, and its targets are decided (reported, not asserted: the targets are checked over
+    ten seeds, not the quick run's two)."""
     found = [c for (n, _), c in quick_claims.items() if n == "adversarial"]
-    assert len(found) == 4 * 4 + 2  # four comparisons per scenario, losses on the two lures
+    # four comparisons per shipped scenario, losses on the two lures, two on the suite
+    assert len(found) == 4 * 4 + 2 + 2
     assert all("95 % CI" in c.evidence or "per run" in c.evidence for c in found)
+    assert sum(c.statement.startswith("adversarial suite:") for c in found) == 2
 
 
 @pytest.mark.slow
