@@ -3,7 +3,7 @@ and the robots' sensor and estimator."""
 
 from __future__ import annotations
 
-from typing import Annotated, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import (
@@ -195,16 +195,19 @@ Sensor = Annotated[
 ]
 
 
+def _acceleration_noise(default: float, description: str) -> Any:
+    """A positive white-acceleration noise field of an estimator (m/s² per axis)."""
+    return Field(
+        default, gt=0, le=MAX_ACCEL, description=description, json_schema_extra={"unit": "m/s²"}
+    )
+
+
 class _EstimatorBase(Strict):
     """What every estimator reads: the target model's quiet process noise, the prior spread."""
 
     type: str = Field(description="Selects the estimator.")
-    accel_std: float = Field(
-        0.2,
-        gt=0,
-        le=MAX_ACCEL,
-        description="White-acceleration noise of the EKF's process model, per axis.",
-        json_schema_extra={"unit": "m/s²"},
+    accel_std: float = _acceleration_noise(
+        0.2, "White-acceleration noise of the EKF's process model, per axis."
     )
     initial_position_std: float = Field(
         0.5,
@@ -266,19 +269,11 @@ class ImmEstimatorSpec(_MultipleModelBase):
     chain (docs/model.md §4)."""
 
     type: Literal["imm"] = Field(description="Selects this estimator.")
-    accel_std: float = Field(
-        0.2,
-        gt=0,
-        le=MAX_ACCEL,
-        description="White-acceleration noise of the quiet model, per axis.",
-        json_schema_extra={"unit": "m/s²"},
+    accel_std: float = _acceleration_noise(
+        0.2, "White-acceleration noise of the quiet model, per axis."
     )
-    manoeuvre_accel_std: float = Field(
-        1.0,
-        gt=0,
-        le=MAX_ACCEL,
-        description="White-acceleration noise of the manoeuvre model, per axis.",
-        json_schema_extra={"unit": "m/s²"},
+    manoeuvre_accel_std: float = _acceleration_noise(
+        1.0, "White-acceleration noise of the manoeuvre model, per axis."
     )
     switch_probability: float = Field(
         0.05,
@@ -298,12 +293,8 @@ class AdaptiveEstimatorSpec(_MultipleModelBase):
     the measurements (an IMM over the levels, docs/model.md §4.2)."""
 
     type: Literal["adaptive"] = Field(description="Selects this estimator.")
-    accel_std: float = Field(
-        0.2,
-        gt=0,
-        le=MAX_ACCEL,
-        description="White-acceleration noise of the middle level, per axis.",
-        json_schema_extra={"unit": "m/s²"},
+    accel_std: float = _acceleration_noise(
+        0.2, "White-acceleration noise of the middle level, per axis."
     )
     levels: int = Field(
         5,
