@@ -285,7 +285,7 @@ def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_wins():
         tag_team=teams * 2,
         seed=[1] * 6,
         trace=[3.0, 2.0, 1.0, 3.0, 1.0, 1.0],
-        mse=[1.0] * 6,
+        mse=[1.0, 2.0, 0.5, 1.0, 2.0, 0.5],  # extended lowest in both
         losses_known_permanent=[0] * 6,
         losses_unknown_permanent=[0] * 6,
     )
@@ -295,6 +295,10 @@ def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_wins():
         "at least 85% of the scenarios": False,  # 1 of 2
         "adversarial suite: the extended team has a lower mean trace than vanilla in at least "
         "85% of the scenarios": True,  # 2 of 2
+        "adversarial suite: the extended team has a lower mean mse than the paper's team in "
+        "at least 85% of the scenarios": True,
+        "adversarial suite: the extended team has a lower mean mse than vanilla in at least "
+        "85% of the scenarios": True,
     }
 
 
@@ -375,10 +379,10 @@ def test_quick_reproduction_reports_the_adversarial_targets(quick_claims):
     scenarios, and its targets are decided (reported, not asserted: the targets are checked over
     ten seeds, not the quick run's two)."""
     found = [c for (n, _), c in quick_claims.items() if n == "adversarial"]
-    # four comparisons per shipped scenario, losses on the two lures, two on the suite
-    assert len(found) == 4 * 4 + 2 + 2
+    # four comparisons per shipped scenario, losses on the two lures, four on the suite
+    assert len(found) == 4 * 4 + 2 + 4
     assert all("95 % CI" in c.evidence or "per run" in c.evidence for c in found)
-    assert sum(c.statement.startswith("adversarial suite:") for c in found) == 2
+    assert sum(c.statement.startswith("adversarial suite:") for c in found) == 4
 
 
 @pytest.mark.slow
