@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2, multivariate_normal
 
+from helpers import healthy_observation
 from resilient_tracking import scenarios
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
@@ -21,7 +22,6 @@ from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.build import make_estimator
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.sensor import RangeBearingSensor
-from resilient_tracking.observation import TeamObservation
 from resilient_tracking.scenario import (
     EstimatorSpec,
     ImmEstimatorSpec,
@@ -396,21 +396,6 @@ def test_ci_of_imm_estimates_fuses_the_combined_gaussians_and_keeps_modes_consis
     np.testing.assert_allclose(fused.modes.probabilities, pool, rtol=1e-12)
 
 
-def _obs(step: int, positions: np.ndarray, z: np.ndarray, links: np.ndarray) -> TeamObservation:
-    m = len(positions)
-    return TeamObservation(
-        step=step,
-        time=DT * step,
-        positions=positions,
-        measurements=z,
-        sensing_ok=np.ones(m, bool),
-        comm_ok=np.ones(m, bool),
-        sensing_persistence=("",) * m,
-        comm_persistence=("",) * m,
-        links=links,
-    )
-
-
 def test_leagues_split_copy_and_merge_fuse_mode_states() -> None:
     rng = np.random.default_rng(8)
     imm = InteractingMultipleModel.quiet_and_manoeuvre(DT, 0.2, 1.5, 0.05, SENSOR)
@@ -423,7 +408,7 @@ def test_leagues_split_copy_and_merge_fuse_mode_states() -> None:
     for step, links in enumerate([linked, linked, apart, apart, apart, linked]):
         x[:, :2] += DT * x[:, 2:]
         z = SENSOR.sample(positions[:, None, :], x[None, :, :2], rng)
-        events = belief.update(_obs(step, positions, z, links))
+        events = belief.update(healthy_observation(step, positions, z, links))
         kinds = [e.event for e in events]
         if step == 2:
             assert kinds.count("league_split") == 2
@@ -550,7 +535,7 @@ def _team_nees(steps: int, n: int, seed: int) -> NeesRun:
         noise = np.where(mode[:, None], w @ chol[1].T, w @ chol[0].T)
         x = x @ a.T + noise
         z = NEES_SENSOR.sample(NEES_ROBOTS[:, None, :], x[None, :, :2], rng)
-        obs = _obs(t, NEES_ROBOTS, z, np.ones((m, m), bool))
+        obs = healthy_observation(t, NEES_ROBOTS, z, np.ones((m, m), bool))
         for k, belief in beliefs.items():
             belief.update(obs)
             est = belief.team_estimate()
