@@ -433,12 +433,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
         print(f"error: --out: {shown(taken[0])} exists (nothing is replaced)", file=sys.stderr)
         return 1
     seed = SUITE_SEED if args.seed is None else args.seed
-    stored = []
-    if seed == SUITE_SEED and not (args.adversarial and args.beyond):
-        if args.adversarial:
-            stored = stored_adversarial_suite(args.n)
-        else:
-            stored = stored_beyond_suite(args.n) if args.beyond else stored_suite(args.n)
+    # the default seed's suites are stored (the same scenarios, without drawing them again)
+    stored_of = {
+        (False, False): stored_suite,
+        (False, True): stored_beyond_suite,
+        (True, False): stored_adversarial_suite,
+    }
+    load = stored_of.get((args.adversarial, args.beyond)) if seed == SUITE_SEED else None
+    stored = load(args.n) if load is not None else []
     scenarios = (
         stored if len(stored) == args.n else drawn(seed, args.n, args.adversarial, args.beyond)
     )

@@ -215,7 +215,7 @@ def generalization_cases(
     scenarios = stored_suite(SUITE_SIZE)
     picked = scenarios[:n]
     if max_pairs is not None:
-        small = [s for s in scenarios if len(s.robots) * len(s.targets) <= max_pairs]
+        small = _small(scenarios, max_pairs)
         picked = small[:n]
         sog_case = next((s for s in small if _sensing_only(s)), None)
         if sog_case is not None and not any(_sensing_only(s) for s in picked):

@@ -389,21 +389,24 @@ def suite(
 def stored_suite(n: int | None = None) -> list[Scenario]:
     """The first ``n`` (default all) scenarios of the fixed suite, as written to
     :data:`SUITE_PATH` by ``tools/generate_suite.py`` from ``suite(SUITE_SEED)``."""
-    data = json.loads(SUITE_PATH.read_text(encoding="utf-8"))
-    return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]
+    return _stored(SUITE_PATH, n)
 
 
 def stored_adversarial_suite(n: int | None = None) -> list[Scenario]:
     """The first ``n`` (default all) scenarios of the ``adversarial`` benchmark's suite, as
     written to :data:`ADVERSARIAL_SUITE_PATH` by ``tools/generate_suite.py --adversarial`` from
     ``suite(SUITE_SEED, adversarial=True)``."""
-    data = json.loads(ADVERSARIAL_SUITE_PATH.read_text(encoding="utf-8"))
-    return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]
+    return _stored(ADVERSARIAL_SUITE_PATH, n)
 
 
 def stored_beyond_suite(n: int | None = None) -> list[Scenario]:
     """The first ``n`` (default all) scenarios of the ``beyond`` benchmark's suite, as written
     to :data:`BEYOND_SUITE_PATH` by ``tools/generate_suite.py --beyond`` from
     ``suite(SUITE_SEED, beyond=True)``."""
-    data = json.loads(BEYOND_SUITE_PATH.read_text(encoding="utf-8"))
+    return _stored(BEYOND_SUITE_PATH, n)
+
+
+def _stored(path: Path, n: int | None) -> list[Scenario]:
+    """The first ``n`` (all if None) scenarios of the suite file ``path``."""
+    data = json.loads(path.read_text(encoding="utf-8"))
     return [parse_scenario(d, d["name"]) for d in data["scenarios"][:n]]
