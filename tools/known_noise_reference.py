@@ -32,6 +32,8 @@ from joblib import Parallel, delayed
 
 from resilient_tracking import scenarios
 from resilient_tracking.belief.degradation_watch import DegradationWatch
+from resilient_tracking.cli import MAX_SEEDS
+from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.experiments.generator import stored_beyond_suite
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.scenario.overrides import BEYOND_TEAM, every_zone_known, overridden
@@ -78,11 +80,6 @@ def run(scenario: Scenario, team: str, seed: int, known_zones: bool) -> dict[str
     return {"trace": float(tm.trace.mean()), "mse": float(tm.mse.mean()), "nees": float(nees)}
 
 
-def _seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
-
-
 def _scenarios(args: argparse.Namespace) -> Iterator[Scenario]:
     if args.suite:
         yield from stored_beyond_suite()
@@ -102,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         (scenario, team, seed)
         for scenario in _scenarios(args)
         for team in TEAMS
-        for seed in _seeds(args.seeds)
+        for seed in parse_seeds(args.seeds, MAX_SEEDS)
     ]
     rows = Parallel(n_jobs=args.jobs)(
         delayed(run)(scenario, team, seed, args.known_zones) for scenario, team, seed in cases

@@ -25,6 +25,8 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from resilient_tracking import scenarios
+from resilient_tracking.cli import MAX_SEEDS
+from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.policies.suspects import SuspectWatch
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, overridden
@@ -77,11 +79,6 @@ def run(name: str, seed: int, oracle: str, standoff: float | None) -> dict[str, 
     return {"trace": float(team.trace.mean()), "mse": float(team.mse.mean()), "losses": losses}
 
 
-def _seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("scenarios", nargs="+", help="shipped names or scenario files")
@@ -90,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--oracle", choices=("always", "trip", "both"), default="both")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
-    seeds = _seeds(args.seeds)
+    seeds = parse_seeds(args.seeds, MAX_SEEDS)
     oracles = ("always", "trip") if args.oracle == "both" else (args.oracle,)
     cases: list[tuple[str, float | None]] = [("none", None)]
     cases += [(o, float(s)) for o in oracles for s in args.standoffs.split(",")]
