@@ -89,7 +89,7 @@ def _nees_and_trace(
             err = x[:, :2] - est.mean[:, :2]
             pos = est.cov[:, :2, :2]
             nees.append(np.einsum("ni,ni->n", err, np.linalg.solve(pos, err[..., None])[..., 0]))
-            trace.append(pos[:, 0, 0] + pos[:, 1, 1])
+            trace.append(est.position_traces())
     return float(np.mean(nees)), float(np.mean(trace))
 
 

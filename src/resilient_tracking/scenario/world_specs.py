@@ -326,7 +326,7 @@ class AdaptiveEstimatorSpec(_MultipleModelBase):
 
     @model_validator(mode="after")
     def _levels_stay_finite(self) -> AdaptiveEstimatorSpec:
-        top = self.accel_std * self.spacing ** ((self.levels - 1) / 2)
+        top = self.noise_levels()[-1]
         if top > MAX_ACCEL:
             raise ValueError(
                 f"levels: the highest level's accel_std · spacing^((levels − 1)/2) = {top:.3g} "
