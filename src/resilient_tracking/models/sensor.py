@@ -338,21 +338,19 @@ class RangeBearingSensor(MeasurementModel):
     def noise_variance(self, distance: FloatArray | float) -> FloatArray:
         """Per-channel variance ``[R_range(d), R_bearing(d)]``."""
         d = np.asarray(distance, dtype=float)
-        out = np.empty(d.shape + (2,))
-        range_shape, range_peak, bearing_shape, bearing_peak, cap = self._constants
-        # capped exponent: far beyond the sensor's reach the variance is huge but finite
-        out[..., 0] = np.divide(np.exp(np.minimum(np.multiply(range_shape, d), cap)), range_peak)
-        out[..., 1] = np.divide(
-            np.exp(np.minimum(np.multiply(bearing_shape, d), cap)), bearing_peak
-        )
-        return out
+        shapes, peaks, cap = self._constants
+        # both channels in one pass, each element its channel's exp(min(shape · d, cap)) / peak;
+        # the capped exponent: far beyond the sensor's reach the variance is huge but finite
+        return np.divide(np.exp(np.minimum(np.multiply(shapes, d[..., None]), cap)), peaks)  # type: ignore[no-any-return]
 
     @functools.cached_property
     def _constants(self) -> tuple[FloatArray, ...]:
-        """The channels' shapes and peaks and ``MAX_EXPONENT`` as 0-d float64 arrays (faster
-        in NumPy operations than Python floats, the same numbers)."""
-        values = (self.range_shape, self.range_peak, self.bearing_shape, self.bearing_peak)
-        return tuple(np.array(float(v)) for v in (*values, MAX_EXPONENT))
+        """The channels' shapes ``[range, bearing]`` and peaks as float64 arrays, and
+        ``MAX_EXPONENT`` as a 0-d one (faster in NumPy operations than Python floats, the same
+        numbers)."""
+        shapes = np.array([self.range_shape, self.bearing_shape], dtype=float)
+        peaks = np.array([self.range_peak, self.bearing_peak], dtype=float)
+        return shapes, peaks, np.array(MAX_EXPONENT)
 
     def noise_distance(
         self, robot: FloatArray, target: FloatArray, measurement: FloatArray
