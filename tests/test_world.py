@@ -419,3 +419,30 @@ def test_the_worlds_observations_pass_the_checks_they_skip() -> None:
         toward = np.array([z.center for z in zones]) - world.robot_positions
         world.step(toward if step < 100 else -toward)
     assert seen["attacks"] and seen["recoveries"], seen
+
+
+@pytest.mark.parametrize("max_range", [None, 2.0])
+def test_observe_asks_a_sensors_own_in_range(max_range: float | None) -> None:
+    """Without a range limit the world skips the distances (``in_range_everywhere``); a sensor
+    whose ``in_range`` is its own (here: blind within 1.5 m) is asked, limit or not."""
+    from dataclasses import dataclass
+
+    from resilient_tracking.models.sensor import RangeBearingSensor
+
+    @dataclass(frozen=True)
+    class Blind(RangeBearingSensor):
+        def in_range(self, distance: Any) -> np.ndarray:
+            return np.asarray(super().in_range(distance)) & (np.asarray(distance) > 1.5)
+
+    targets = [{"start": [x, 0.0], "motion": STILL} for x in (1.0, 1.8, 3.0)]
+    world = World(scenario([[0.0, 0.0]], targets), 0)
+
+    def measured(sensor: RangeBearingSensor) -> list[bool]:
+        world.sensor = sensor
+        world._in_range_everywhere = sensor.in_range_everywhere()  # as World.__init__ finds it
+        return (~np.isnan(world.observe().measurements[0, :, 0])).tolist()
+
+    assert RangeBearingSensor(max_range=max_range).in_range_everywhere() is (max_range is None)
+    assert not Blind(max_range=max_range).in_range_everywhere()
+    assert measured(RangeBearingSensor(max_range=max_range)) == [True, True, max_range is None]
+    assert measured(Blind(max_range=max_range)) == [False, True, max_range is None]

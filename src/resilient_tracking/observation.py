@@ -78,8 +78,7 @@ class TeamObservation:
         the types and shapes :meth:`__post_init__` checks (``tests/test_world.py`` checks that
         they pass): made without checking them again, every tick."""
         obs = cls.__new__(cls)
-        for name, value in fields.items():
-            object.__setattr__(obs, name, value)
+        obs.__dict__.update(fields)  # what object.__setattr__ per field does, in one call
         return obs
 
     def __post_init__(self) -> None:

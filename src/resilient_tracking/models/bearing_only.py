@@ -114,6 +114,10 @@ class BearingOnlySensor(MeasurementModel):
             return np.ones_like(d, dtype=bool)
         return d <= self.max_range
 
+    def in_range_everywhere(self) -> bool:
+        """No ``max_range`` (and :meth:`in_range` as here, not a subclass's own)."""
+        return self.max_range is None and type(self).in_range is BearingOnlySensor.in_range
+
     def sample(self, robot: FloatArray, target: FloatArray, rng: np.random.Generator) -> FloatArray:
         """A noisy bearing, noise drawn with variance ``R(d)``, wrapped to [−π, π)."""
         clean = self.predict(robot, target)

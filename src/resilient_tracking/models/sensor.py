@@ -230,6 +230,11 @@ class MeasurementModel(ABC):
     def in_range(self, distance: FloatArray | float) -> NDArray[np.bool_]:
         """Whether a target at this distance is measured at all."""
 
+    def in_range_everywhere(self) -> bool:
+        """Whether :meth:`in_range` is true at every distance (no range limit), so the world
+        need not compute distances to ask it; ``False`` (ask :meth:`in_range`) by default."""
+        return False
+
     @abstractmethod
     def sample(self, robot: FloatArray, target: FloatArray, rng: np.random.Generator) -> FloatArray:
         """A noisy measurement."""
@@ -385,6 +390,10 @@ class RangeBearingSensor(MeasurementModel):
         if self.max_range is None:
             return np.ones_like(d, dtype=bool)
         return d <= self.max_range
+
+    def in_range_everywhere(self) -> bool:
+        """No ``max_range`` (and :meth:`in_range` as here, not a subclass's own)."""
+        return self.max_range is None and type(self).in_range is RangeBearingSensor.in_range
 
     def sample(self, robot: FloatArray, target: FloatArray, rng: np.random.Generator) -> FloatArray:
         """A noisy measurement, noise drawn with variance ``R(d)`` (bearing wrapped)."""

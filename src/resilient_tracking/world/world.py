@@ -77,6 +77,7 @@ class World:
         self.dt = scenario.dt
         self.step_index = 0
         self.sensor = scenario.sensor.model()
+        self._in_range_everywhere = self.sensor.in_range_everywhere()
         self._rng_attacks = stream(seed, "attacks")
         self._rng_measurements = stream(seed, "measurements")
         self._rng_targets = stream(seed, "target_motion")
@@ -159,11 +160,14 @@ class World:
         # Noise is drawn for every pair every step so the stream stays aligned across policies.
         z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
         z = self.degradations.measure(z, self.sensor, positions, targets)
-        distance = row_norms(targets[None, :, :] - positions[:, None, :])
         sensing_ok = self.capability_ok("sensing")
-        measured = sensing_ok[:, None] & self.sensor.in_range(distance)
-        if not measured.all():
-            z[~measured] = np.nan
+        if self._in_range_everywhere:  # no range limit: a working sensor measures every target
+            lost = ~sensing_ok  # whole rows
+        else:
+            distance = row_norms(targets[None, :, :] - positions[:, None, :])
+            lost = ~(sensing_ok[:, None] & self.sensor.in_range(distance))
+        if lost.any():
+            z[lost] = np.nan
         obs = TeamObservation.from_simulator(
             step=self.step_index,
             time=self.time,
