@@ -94,6 +94,8 @@ class Degradations:
     ) -> list[tuple[int, FailureKind]]:
         """End each temporary degradation (held at least one step) whose robot left the zone's
         influence region; returns the announced ones that ended, as ``(robot, kind)``."""
+        if not self._effects:  # no zone degrades: none to end
+            return []
         announced: list[tuple[int, FailureKind]] = []
         for kind in ("sensing", "comm"):
             for robot, held in enumerate(self.active[kind]):  # type: ignore[index]

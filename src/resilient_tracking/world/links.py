@@ -38,5 +38,5 @@ def link_matrix(
     if comm_range is not None:
         pair = np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=-1)
         links &= pair <= comm_range
-    links[np.arange(m), np.arange(m)] = False
+    links.flat[:: m + 1] = False  # the diagonal (faster than fancy indexing)
     return links

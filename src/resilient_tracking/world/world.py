@@ -103,6 +103,8 @@ class World:
         # the comm zones' true centres (unless they move) and δ2 never change: arrays once
         self._jammer_centers = np.array([z.center for z in self._comm_zones]).reshape(-1, 2)
         self._jammer_deltas = np.array([z.sizes["comm"] for z in self._comm_zones], dtype=float)
+        #: what link_matrix is given for the links as possible without jamming: no jammer
+        self._no_jamming = np.zeros((0, m, m), dtype=bool)
         #: partial degradations by zones whose effect is ``degrade`` (truth only)
         self.degradations = Degradations(scenario, seed)
         #: spread probability per step of each zone's compromise (0: it does not spread)
@@ -348,15 +350,13 @@ class World:
     def _compute_links(self) -> np.ndarray:
         """Links now, and jamming isolation: a robot whose every possible link is jammed."""
         positions = self.robot_positions
-        jammed = jammed_by(positions, self._jammer_centers, self._jammer_deltas)
         radio = np.array(
             [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
         )
-        possible = link_matrix(
-            positions, radio, np.zeros((0,) + jammed.shape[1:], bool), self.scenario.comm_range
-        )
-        if not jammed.size:  # no jammer: no robot is isolated by jamming, none recovers from it
+        possible = link_matrix(positions, radio, self._no_jamming, self.scenario.comm_range)
+        if not self._comm_zones:  # no jammer: no robot is isolated by jamming, none recovers
             return self.degradations.drop_links(possible)
+        jammed = jammed_by(positions, self._jammer_centers, self._jammer_deltas)
         links = possible & ~jammed.any(axis=0)
         any_possible = cast(list[bool], possible.any(axis=1).tolist())
         any_link = cast(list[bool], links.any(axis=1).tolist())
