@@ -201,6 +201,26 @@ def test_positions_stay_in_workspace() -> None:
         assert (world.robot_positions >= lower).all() and (world.robot_positions <= upper).all()
 
 
+def test_the_worlds_clipping_is_clip_velocities() -> None:
+    """``World.clip_controls`` (bounds made once) gives ``clip_velocities``' numbers exactly,
+    non-finite commands included."""
+    from resilient_tracking.models.robot_motion import clip_velocities
+
+    ws = {"xmin": -1.3, "xmax": 2.9, "ymin": -0.7, "ymax": 1.1}
+    robots = [[2.85, 1.05], [0.0, 0.0], [-1.2, 0.3]]
+    targets = [{"start": [0.0, 0.0], "motion": STILL}]
+    world = World(scenario(robots, targets, u_max=[0.4, 3.7, 1.1], workspace=ws), 0)
+    lower, upper = np.array([-1.3, -0.7]), np.array([2.9, 1.1])
+    rng = np.random.default_rng(5)
+    for k in range(300):
+        u = rng.normal(0, 3, (3, 2))
+        if k % 7 == 0:
+            u[k % 3, k % 2] = (np.nan, np.inf, -np.inf)[k % 3]
+        expected = clip_velocities(world.robot_positions, u, world.u_max, lower, upper, world.dt)
+        assert world.clip_controls(u).tobytes() == expected.tobytes()
+        world.robot_positions = world.robot_positions + expected * world.dt
+
+
 # ---------------------------------------------------------------------------- target motions
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from resilient_tracking.events import Event
 from resilient_tracking.models.geometry import row_norms
-from resilient_tracking.models.robot_motion import clip_velocities
+from resilient_tracking.models.robot_motion import VelocityClip
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import CommZone, Scenario
@@ -87,7 +87,9 @@ class World:
         self._rng_zones = stream(seed, "zone_motion")
         self.robot_positions = np.array([r.start for r in scenario.robots], dtype=float)
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
-        self._lower, self._upper = scenario.workspace.lower, scenario.workspace.upper
+        ws = scenario.workspace
+        #: clip_velocities with this team's bounds, made once
+        self._clip = VelocityClip(self.u_max, ws.lower, ws.upper, self.dt)
         self.targets = [TargetTruth(t) for t in scenario.targets]
         #: the targets whose motion reacts to the world, and the zones as they see them
         self._reacting = [t for t in self.targets if t.reacts]
@@ -195,10 +197,9 @@ class World:
     # ------------------------------------------------------------------ dynamics
 
     def clip_controls(self, controls: np.ndarray) -> np.ndarray:
-        """Velocity bounds per component, then keep the next position inside the workspace."""
-        return clip_velocities(
-            self.robot_positions, controls, self.u_max, self._lower, self._upper, self.dt
-        )
+        """Velocity bounds per component, then keep the next position inside the workspace
+        (:func:`~resilient_tracking.models.robot_motion.clip_velocities`)."""
+        return self._clip(self.robot_positions, controls)
 
     def step(self, controls: np.ndarray) -> np.ndarray:
         """Advance one step with velocity ``controls`` (M, 2); returns the controls applied.
@@ -221,8 +222,9 @@ class World:
         return u
 
     def advance(self, applied: np.ndarray) -> None:
-        """Advance one step with velocities already clipped by :func:`clip_velocities`."""
-        self.robot_positions = self.robot_positions + applied * self.dt
+        """Advance one step with velocities already clipped by
+        :func:`~resilient_tracking.models.robot_motion.clip_velocities`."""
+        self.robot_positions = self.robot_positions + np.multiply(applied, self.dt)
         if self._reacting:
             around = self.surroundings()
             for target in self._reacting:
