@@ -56,8 +56,10 @@ class WaypointsMotion(TargetMotion):
                 if self.spec.loop and self._next_waypoint == len(points):
                     self._next_waypoint = 0
             else:
-                # (ufuncs by name: faster than the operators with a Python float, same numbers)
-                self.position = self.position + np.multiply(np.divide(delta, dist), budget)
+                # position + delta / dist * budget, per component in Python floats: the same
+                # IEEE operations as NumPy's on a 2-vector, without its overhead per call
+                (px, py), (dx, dy) = self.position.tolist(), delta.tolist()
+                self.position = np.array([px + dx / dist * budget, py + dy / dist * budget])
                 budget = 0.0
         self.velocity = self._waypoint_velocity()
 
@@ -68,7 +70,8 @@ class WaypointsMotion(TargetMotion):
         dist = vector_length(delta)
         if dist == 0:
             return np.zeros(2)
-        return np.multiply(np.divide(delta, dist), self.spec.speed)  # delta / dist * speed
+        (dx, dy), speed = delta.tolist(), self.spec.speed
+        return np.array([dx / dist * speed, dy / dist * speed])  # delta / dist * speed, as above
 
 
 @MOTIONS.register("circle")
