@@ -77,6 +77,7 @@ class World:
         self.dt = scenario.dt
         self.step_index = 0
         self.sensor = scenario.sensor.model()
+        #: no range limit: observe needs no distances to know what a working sensor measures
         self._in_range_everywhere = self.sensor.in_range_everywhere()
         self._rng_attacks = stream(seed, "attacks")
         self._rng_measurements = stream(seed, "measurements")
