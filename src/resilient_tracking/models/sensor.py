@@ -344,15 +344,15 @@ class RangeBearingSensor(MeasurementModel):
         """Per-channel variance ``[R_range(d), R_bearing(d)]``."""
         d = np.asarray(distance, dtype=float)
         shapes, peaks, cap = self._constants
-        # both channels in one pass, each element its channel's exp(min(shape · d, cap)) / peak;
-        # the capped exponent: far beyond the sensor's reach the variance is huge but finite
-        return np.divide(np.exp(np.minimum(np.multiply(shapes, d[..., None]), cap)), peaks)  # type: ignore[no-any-return]
+        # both channels at once (elementwise, so the same numbers as one at a time); capped
+        # exponent: far beyond the sensor's reach the variance is huge but finite
+        exponent = np.minimum(np.multiply(shapes, d[..., None]), cap)
+        return np.divide(np.exp(exponent), peaks)  # type: ignore[no-any-return]
 
     @functools.cached_property
     def _constants(self) -> tuple[FloatArray, ...]:
-        """The channels' shapes ``[range, bearing]`` and peaks as float64 arrays, and
-        ``MAX_EXPONENT`` as a 0-d one (faster in NumPy operations than Python floats, the same
-        numbers)."""
+        """The channels' shapes and peaks (``[range, bearing]``) and ``MAX_EXPONENT`` as
+        float64 arrays (faster in NumPy operations than Python floats, the same numbers)."""
         shapes = np.array([self.range_shape, self.bearing_shape], dtype=float)
         peaks = np.array([self.range_peak, self.bearing_peak], dtype=float)
         return shapes, peaks, np.array(MAX_EXPONENT)
@@ -372,9 +372,9 @@ class RangeBearingSensor(MeasurementModel):
         dx, dy = delta[..., 0], delta[..., 1]
         d2 = np.maximum(dx * dx + dy * dy, _MIN_RANGE_SQUARED)
         d = np.sqrt(d2)
-        out = np.empty(d.shape + (2, 2))
-        out[..., 0, :] = delta / d[..., None]  # range row [dx, dy] / d
-        out[..., 1, :] = delta[..., ::-1] / d2[..., None]  # bearing row [−dy, dx] / d²:
+        out = np.empty(d.shape + (2, 2))  # rows divided in place: no temporaries, same numbers
+        np.divide(delta, d[..., None], out=out[..., 0, :])  # range row [dx, dy] / d
+        np.divide(delta[..., ::-1], d2[..., None], out=out[..., 1, :])  # bearing [−dy, dx] / d²:
         np.negative(out[..., 1, 0], out=out[..., 1, 0])  # (−dy)/d² is −(dy/d²) exactly
         return out
 
