@@ -106,6 +106,57 @@ def test_the_quick_health_check_agrees_with_the_eigen_decomposition(factor, shif
             np.testing.assert_array_equal(quick, full)
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_the_quick_health_check_never_skips_a_repair_near_the_floor(seed):
+    """Matrices whose smallest eigenvalue sits around the eigen path's floor (relative and
+    absolute), alone and in stacks of very unequal scales: whenever the quick check passes a
+    stack, the eigen path repairs nothing in it and returns the same matrices."""
+    rng = np.random.default_rng(seed)
+    vec = np.linalg.qr(rng.standard_normal((3, 4, 4)))[0]
+    scale = 10.0 ** rng.uniform(-14, 6, size=3)
+    scale[0] = 1.0
+    passed = 0
+    for factor in (0.3, 0.9, 1.0, 1.1, 2.0, 2.2, 3.0, 10.0, 1e3):
+        eig = scale[:, None] * np.array([1.0, 0.5, 0.2, 0.0])
+        floor = np.maximum(health.EIGEN_FLOOR_RATIO * scale, health.EIGEN_FLOOR_ABS)
+        eig[:, -1] = factor * floor
+        stack = (vec * eig[:, None, :]) @ np.swapaxes(vec, 1, 2)
+        stack = 0.5 * (stack + np.swapaxes(stack, 1, 2))
+        for cov in (stack, stack[:1], stack[1:2], stack[2:]):
+            quick = health._surely_healthy(np.array(cov))
+            full, repairs = _full_repair(cov)
+            if quick is not None:
+                passed += 1
+                assert not repairs
+                np.testing.assert_array_equal(quick, full)
+    assert passed > 0  # the comfortable cases do pass
+
+
+def test_the_belief_asks_for_a_repair_only_when_the_quick_check_fails(monkeypatch):
+    """The belief's tick skips :func:`repair_covariances` for healthy covariances and calls
+    it otherwise."""
+    calls = []
+    original = health.repair_covariances
+
+    def counting(cov, fallback=None):
+        calls.append(cov)
+        return original(cov, fallback)
+
+    import resilient_tracking.belief.team_belief as team_belief
+
+    monkeypatch.setattr(team_belief, "repair_covariances", counting)
+    est = TargetEstimate.initial(np.array([[0.0, 1.0, 0.1, 0.0]]), 0.3, 0.1)
+    belief = TeamBelief(
+        1, est, ExtendedKalmanFilter(NearlyConstantVelocity(0.1, 0.2), RangeBearingSensor())
+    )
+    positions, z = np.array([[0.0, 0.0]]), np.full((1, 1, 2), np.nan)
+    belief.update(healthy_observation(0, positions, z, np.ones((1, 1), bool)))
+    assert calls == []
+    belief.estimates[0].cov[0, 0, 0] = -1.0
+    assert belief._check_health(1) and len(calls) == 1
+    assert is_spd(belief.estimates[0].cov)
+
+
 def _full_repair(cov):
     original = health._surely_healthy
     health._surely_healthy = lambda c: None

@@ -86,27 +86,40 @@ def repair_covariances(
     return cov, repairs
 
 
+def surely_healthy(cov: FloatArray) -> bool:
+    """Whether :func:`repair_covariances` would surely report nothing for the stack ``cov``
+    ``(N, d, d)`` (decided cheaply, without copying it); ``False``: it may have to repair."""
+    return _surely_healthy(np.asarray(cov, dtype=float)) is not None
+
+
 def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     """The symmetrised stack if every matrix is finite, symmetric to ``ASYMMETRY_TOL`` and
-    has all eigenvalues above twice the floor (a Cholesky factorisation of ``P − t I`` exists,
-    ``t = 2 max(EIGEN_FLOOR_RATIO tr P, EIGEN_FLOOR_ABS)`` ≥ twice the floor since
-    ``λmax ≤ tr P``), else None. The common case, decided without an eigen-decomposition;
-    :func:`repair_covariances` gives the same answer (no repair) for it. An exactly symmetric
-    stack, as the filter leaves it, comes back as itself: ``(P + Pᵀ)/2`` would be ``P``."""
+    has all eigenvalues above twice the floor, else None. The common case, decided without an
+    eigen-decomposition; :func:`repair_covariances` gives the same answer (no repair) for it.
+    An exactly symmetric stack, as the filter leaves it, comes back as itself: ``(P + Pᵀ)/2``
+    would be ``P``.
+
+    The eigenvalues: a Cholesky factorisation of every ``P − t I`` exists, with one shift for
+    the stack, ``t = 2 max(EIGEN_FLOOR_RATIO Σ tr P, EIGEN_FLOOR_ABS)``. Where it exists,
+    every diagonal entry is above ``t > 0``, so the stack's total trace ``Σ tr P`` bounds each
+    matrix's ``λmax ≤ tr P``, and ``t`` is at least twice each matrix's floor (a stack of very
+    unequal matrices may fail where each alone would pass: the eigen path then decides)."""
     if not math.isfinite(np.add.reduce(cov, axis=None)) and not np.isfinite(cov).all():
         return None  # (a finite sum has finite terms: the elementwise test only otherwise)
     transposed = cov.swapaxes(1, 2)
-    if (cov == transposed).all():
+    if np.count_nonzero(cov != transposed) == 0:  # (quicker than (cov == transposed).all())
         sym = cov
     else:
         scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)
         if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
             return None
         sym = 0.5 * (cov + transposed)
-    trace = sym.trace(axis1=1, axis2=2)
-    shift = np.multiply(2, np.maximum(np.multiply(EIGEN_FLOOR_RATIO, trace), EIGEN_FLOOR_ABS))
+    total_trace = float(np.add.reduce(sym.diagonal(0, 1, 2), axis=None))
+    shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
+    if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
+        return None
     try:
-        np.linalg.cholesky(sym - shift[:, None, None] * _eye(cov.shape[-1]))
+        np.linalg.cholesky(sym - shift * _eye(cov.shape[-1]))
     except np.linalg.LinAlgError:
         return None
     return sym

@@ -40,7 +40,7 @@ from resilient_tracking.belief.degradation_watch import DegradationWatch
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.fusion import fuse_estimates
-from resilient_tracking.belief.health import repair_covariances
+from resilient_tracking.belief.health import repair_covariances, surely_healthy
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.modes import ModeStates
 from resilient_tracking.belief.needs import BeliefNeeds
@@ -193,6 +193,8 @@ class TeamBelief:
         """Keep every league covariance symmetric positive definite; an event per repair."""
         events: list[Event] = []
         for k, estimate in enumerate(self.estimates):
+            if surely_healthy(estimate.cov):  # the usual tick: nothing to repair, nothing copied
+                continue
             cov, repairs = repair_covariances(estimate.cov, fallback=self._prior_block)
             if not repairs:
                 continue
