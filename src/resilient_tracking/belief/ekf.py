@@ -30,6 +30,7 @@ measurement is far from linear across the prior's spread (a bearing's Hessian gr
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -204,13 +205,15 @@ class ExtendedKalmanFilter:
             hp = hess @ cov[None, :, None, :2, :2]
             var = var + 0.5 * np.einsum("kncab,kncba->knc", hp, hp)
 
-        valid = np.isfinite(z).all(axis=-1)  # (K, N)
+        # every robot measured every target (a finite sum has finite terms): nothing to mask
+        measured_all = math.isfinite(np.add.reduce(z, axis=None))
+        valid = _all_true(k, n) if measured_all else np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
         if at is not None:  # iterated EKF: z − h(p_i) − H_i (p̂ − p_i)
             innov = innov - np.einsum("kncj,nj->knc", hjac, mean[:, :2] - at)
         for channel in sensor.ANGLES:
             innov[..., channel] = wrap_angle(innov[..., channel])
-        if valid.all():  # every robot measured every target: nothing to mask
+        if measured_all:
             rinv = np.divide(_ONE, var)
         else:
             innov = np.where(valid[..., None], innov, 0.0)
@@ -278,6 +281,14 @@ _EYE2, _EYE4 = np.eye(2), np.eye(4)
 _EYE2.flags.writeable = _EYE4.flags.writeable = False
 #: 1 and ½ as 0-d float64 arrays (faster than Python floats in NumPy operations, same numbers)
 _ONE, _HALF = np.array(1.0), np.array(0.5)
+
+
+@functools.cache
+def _all_true(k: int, n: int) -> NDArray[np.bool_]:
+    """``(k, n)`` trues (read-only, shared): every robot measured every target."""
+    valid = np.ones((k, n), dtype=bool)
+    valid.flags.writeable = False
+    return valid
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:
