@@ -70,6 +70,8 @@ class SilentRobotWatch:
         s = self.settings
         events: list[Event] = []
         linked = cast(list[bool], obs.links.any(axis=1).tolist())
+        if not self._silent and all(linked):  # the usual tick: nobody to watch, nobody to forget
+            return []  # (the watcher keeps a robot only while it is silent, as it was last tick)
         listeners = [i for i, has_link in enumerate(linked) if has_link]
         for robot, has_link in enumerate(linked):
             silent = not has_link

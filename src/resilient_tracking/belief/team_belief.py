@@ -145,8 +145,9 @@ class TeamBelief:
         if self.last_step is not None:
             self.estimates = [self.predicted(k) for k in range(len(self.estimates))]
         self.last_step = obs.step
+        sensing_ok = self.sensing_ok.tolist()  # (Python bools: quicker to index one by one)
         for k, league in enumerate(self.leagues):
-            sensing = [i for i in league if obs.sensing_ok[i]]
+            sensing = [i for i in league if sensing_ok[i]]
             if not sensing:
                 continue
             if len(sensing) == len(obs.positions):  # the whole team (leagues are sorted): no copies
