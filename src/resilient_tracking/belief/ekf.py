@@ -94,7 +94,7 @@ class ExtendedKalmanFilter:
         a = self._a
         mean = est.mean @ a.T
         cov = np.einsum("ij,njk,lk->nil", a, est.cov, a) + self._q
-        return TargetEstimate(mean, _symmetrize(cov))
+        return TargetEstimate.trusted(mean, _symmetrize(cov))
 
     def update(
         self,
@@ -180,7 +180,7 @@ class ExtendedKalmanFilter:
         """The update of ``est`` with the measurements linearised at the target positions
         ``at`` ``(N, 2)`` (``None``: at the predicted ones, the paper's EKF), robot ``k``'s
         noise variance scaled by ``noise_scale[k]`` (``None``: nominal)."""
-        n = est.n_targets
+        n = est.mean.shape[0]  # (the number of targets)
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
         z = np.asarray(measurements, dtype=float)
@@ -236,7 +236,8 @@ class ExtendedKalmanFilter:
         i_kh = _EYE4 - kh
         joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f_info @ f.swapaxes(1, 2)
         new_cov = _symmetrize(joseph)
-        return TargetEstimate(new_mean, new_cov), _Linearisation(hjac, var, valid, innov, rinv, b)
+        updated = TargetEstimate.trusted(new_mean, new_cov)
+        return updated, _Linearisation(hjac, var, valid, innov, rinv, b)
 
     def update_detailed(
         self,

@@ -45,6 +45,14 @@ class TargetEstimate:
                 f"got {self.modes.probabilities.shape[0]}"
             )
 
+    @classmethod
+    def trusted(cls, mean: FloatArray, cov: FloatArray) -> TargetEstimate:
+        """A single-model estimate from float64 arrays already of the right shapes (an
+        estimator's own results, every tick): made without checking them again."""
+        est = cls.__new__(cls)
+        est.mean, est.cov, est.modes = mean, cov, None
+        return est
+
     def copy(self) -> TargetEstimate:
         """A deep copy (arrays are not shared)."""
         modes = None if self.modes is None else self.modes.copy()

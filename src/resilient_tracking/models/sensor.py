@@ -323,16 +323,22 @@ class RangeBearingSensor(MeasurementModel):
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """:meth:`predict`, :meth:`jacobian` and the noise variance at the predicted range, from
         one difference ``target − robot`` (a subclass that replaces one of them: its own)."""
-        cls = type(self)
-        if not (
-            cls.predict is RangeBearingSensor.predict
-            and cls.jacobian is RangeBearingSensor.jacobian
-            and cls.noise_distance is RangeBearingSensor.noise_distance
-        ):
+        if not self._own_linearise:
             return super().linearise(robot, target)
         delta = np.asarray(target, dtype=float) - np.asarray(robot, dtype=float)
         h = self._predict(delta)
         return h, self._jacobian(delta), self.noise_variance(h[..., 0])
+
+    @functools.cached_property
+    def _own_linearise(self) -> bool:
+        """Whether this sensor measures as this class does (a subclass may replace
+        :meth:`predict`, :meth:`jacobian` or :meth:`noise_distance`)."""
+        cls = type(self)
+        return (
+            cls.predict is RangeBearingSensor.predict
+            and cls.jacobian is RangeBearingSensor.jacobian
+            and cls.noise_distance is RangeBearingSensor.noise_distance
+        )
 
     def _predict(self, delta: FloatArray) -> FloatArray:
         out = np.empty(delta.shape)
@@ -369,8 +375,8 @@ class RangeBearingSensor(MeasurementModel):
         return self._jacobian(np.asarray(target, dtype=float) - np.asarray(robot, dtype=float))
 
     def _jacobian(self, delta: FloatArray) -> FloatArray:
-        dx, dy = delta[..., 0], delta[..., 1]
-        d2 = np.maximum(dx * dx + dy * dy, _MIN_RANGE_SQUARED)
+        squares = delta * delta  # [dx², dy²]
+        d2 = np.maximum(squares[..., 0] + squares[..., 1], _MIN_RANGE_SQUARED)
         d = np.sqrt(d2)
         out = np.empty(d.shape + (2, 2))  # rows divided in place: no temporaries, same numbers
         np.divide(delta, d[..., None], out=out[..., 0, :])  # range row [dx, dy] / d
