@@ -466,3 +466,43 @@ def test_observe_asks_a_sensors_own_in_range(max_range: float | None) -> None:
     assert not Blind(max_range=max_range).in_range_everywhere()
     assert measured(RangeBearingSensor(max_range=max_range)) == [True, True, max_range is None]
     assert measured(Blind(max_range=max_range)) == [False, True, max_range is None]
+
+
+# ---------------------------------------------------------------------------- cached flags
+
+
+def test_observe_flags_and_links_follow_failures_set_from_outside() -> None:
+    """observe's flags and the radio-only links are cached per failure state: a failure list
+    edited or replaced from outside is seen, and they equal what the general path makes."""
+    from resilient_tracking.world.links import link_matrix
+    from resilient_tracking.world.world import Failure
+
+    world = World(scenario([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]), 0)
+    world.observe()
+    world.failures["sensing"] = [None, Failure("temporary", 0, 0), None]
+    world.failures["comm"][2] = Failure("permanent", 0, 0)
+    world.links = world._compute_links()
+    obs = world.observe()
+    assert obs.sensing_ok.tolist() == world.capability_ok("sensing").tolist() == [1, 0, 1]
+    assert obs.comm_ok.tolist() == world.capability_ok("comm").tolist() == [1, 1, 0]
+    assert obs.sensing_persistence == world.persistence("sensing") == ("", "temporary", "")
+    assert obs.comm_persistence == world.persistence("comm") == ("", "", "permanent")
+    assert np.isnan(obs.measurements[1]).all() and not np.isnan(obs.measurements[0]).any()
+    radio = np.array([True, True, False])
+    expected = link_matrix(world.robot_positions, radio, np.zeros((0, 3, 3), bool), None)
+    assert (obs.links == expected).all() and (world.links == expected).all()
+    obs.sensing_ok[:] = False  # the observation's own copy
+    assert world.observe().sensing_ok.tolist() == [1, 0, 1]
+
+
+def test_velocity_clip_of_finite_controls_is_the_general_clip() -> None:
+    from resilient_tracking.models.robot_motion import VelocityClip
+
+    rng = np.random.default_rng(3)
+    clip = VelocityClip(
+        np.array([0.5, 1.0, 2.0]), np.array([-1.0, -1.0]), np.array([1.0, 1.0]), 0.1
+    )
+    for _ in range(200):
+        positions = rng.uniform(-1.0, 1.0, (3, 2))
+        controls = rng.normal(0.0, 3.0, (3, 2))
+        assert clip.finite(positions, controls).tobytes() == clip(positions, controls).tobytes()

@@ -41,6 +41,12 @@ class VelocityClip:
         """The velocities applied for ``controls`` (M, 2) of robots at ``positions`` (M, 2)."""
         return _clip(positions, controls, self._low, self._high, self._lower, self._upper, self._dt)
 
+    def finite(self, positions: np.ndarray, controls: np.ndarray) -> np.ndarray:
+        """:meth:`__call__` for ``controls`` already known to be finite (the caller checked):
+        the same numbers without checking again."""
+        u = np.minimum(np.maximum(controls, self._low), self._high)
+        return _to_workspace(positions, u, self._lower, self._upper, self._dt)
+
 
 def _clip(
     positions: np.ndarray,
@@ -55,7 +61,13 @@ def _clip(
     u = controls
     if not np.isfinite(controls).all():  # rare: find whose command it is, it holds position
         u = np.where(np.isfinite(controls).all(axis=-1, keepdims=True), controls, 0.0)
-    u = np.minimum(np.maximum(u, low), high)
+    return _to_workspace(positions, np.minimum(np.maximum(u, low), high), lower, upper, dt)
+
+
+def _to_workspace(
+    positions: np.ndarray, u: np.ndarray, lower: np.ndarray, upper: np.ndarray, dt: float
+) -> np.ndarray:
+    """The velocities ``u`` (within their bounds) cut so the next position stays inside."""
     # (ufuncs called by name: faster than the operators with a Python float, same numbers)
     nxt = np.minimum(np.maximum(positions + np.multiply(u, dt), lower), upper)
     return np.divide(nxt - positions, dt)

@@ -114,6 +114,20 @@ class World:
         self._spread = np.array([spread_probability(z) for z in self.zones], dtype=float)
         # its own stream, made only when a zone spreads: no other draw changes
         self._rng_spread = stream(seed, "spread") if self._spread.any() else None
+        #: observe's failure flags and the links without jamming or range (they depend on the
+        #: failures alone), each with the failure lists' contents they were made for: made
+        #: again only when a failure begins or ends (the lists are compared, so a list
+        #: replaced from outside counts too)
+        self._flags_for: tuple[Failure | None, ...] | None = None
+        self._flags: tuple[np.ndarray, np.ndarray, tuple[str, ...], tuple[str, ...], bool] = (
+            np.empty(0, dtype=bool),
+            np.empty(0, dtype=bool),
+            (),
+            (),
+            False,
+        )
+        self._links_for: tuple[Failure | None, ...] | None = None
+        self._possible = np.empty((0, 0), dtype=bool)
         self.links = self._compute_links()
 
     # ------------------------------------------------------------------ read-only truth
@@ -165,23 +179,24 @@ class World:
         # Noise is drawn for every pair every step so the stream stays aligned across policies.
         z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
         z = self.degradations.measure(z, self.sensor, positions, targets)
-        sensing_ok = self.capability_ok("sensing")
+        sensing_ok, comm_ok, sensing_persistence, comm_persistence, blind = self._failure_flags()
         if self._in_range_everywhere:  # no range limit: a working sensor measures every target
-            lost = ~sensing_ok  # whole rows
+            if blind:  # some sensor is down: its whole row
+                z[~sensing_ok] = np.nan
         else:
             distance = row_norms(targets[None, :, :] - positions[:, None, :])
             lost = ~(sensing_ok[:, None] & self.sensor.in_range(distance))
-        if lost.any():
-            z[lost] = np.nan
+            if lost.any():
+                z[lost] = np.nan
         obs = TeamObservation.from_simulator(
             step=self.step_index,
             time=self.time,
             positions=positions.copy(),
             measurements=z,
-            sensing_ok=sensing_ok,
-            comm_ok=self.capability_ok("comm"),
-            sensing_persistence=self.persistence("sensing"),
-            comm_persistence=self.persistence("comm"),
+            sensing_ok=sensing_ok.copy(),
+            comm_ok=comm_ok.copy(),
+            sensing_persistence=sensing_persistence,
+            comm_persistence=comm_persistence,
             links=self.links.copy(),
             attacks=tuple(self._pending_attacks),
             recoveries=tuple(self._pending_recoveries),
@@ -189,6 +204,25 @@ class World:
         self._pending_attacks = []
         self._pending_recoveries = []
         return obs
+
+    def _failure_flags(
+        self,
+    ) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], tuple[str, ...], bool]:
+        """:meth:`capability_ok` and :meth:`persistence` of both kinds, and whether any sensor
+        is down; made again only when the failures changed since the last call (the flags'
+        arrays are the cache's own: copy before handing them out)."""
+        now = (*self.failures["sensing"], *self.failures["comm"])
+        if now != self._flags_for:
+            sensing_ok = self.capability_ok("sensing")
+            self._flags = (
+                sensing_ok,
+                self.capability_ok("comm"),
+                self.persistence("sensing"),
+                self.persistence("comm"),
+                not sensing_ok.all(),
+            )
+            self._flags_for = now
+        return self._flags
 
     def take_truth_events(self) -> list[Event]:
         """Truth's events since the last call (degradations begun and ended): for the truth
@@ -211,14 +245,16 @@ class World:
         u = np.asarray(controls, dtype=float)
         if u.shape != (self.n_robots, 2):
             raise ValueError(f"controls have shape {u.shape}, expected ({self.n_robots}, 2)")
-        if not np.isfinite(u).all():
+        if np.isfinite(u).all():
+            u = self._clip.finite(self.robot_positions, u)  # checked: not again in the clip
+        else:
             bad = ~np.isfinite(u).all(axis=1)
             log.warning(
                 "step %d: the controls of robots %s are not finite; they hold position",
                 self.step_index,
                 np.flatnonzero(bad).tolist(),
             )
-        u = self.clip_controls(u)
+            u = self.clip_controls(u)
         self.advance(u)
         return u
 
@@ -305,9 +341,7 @@ class World:
                 rate[robot] = self._spread[f.zone_id]
         if not rate.any():
             return
-        open_radio = np.array(
-            [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
-        )
+        open_radio = self._radio()
         reach = self.radio_links(open_radio | (rate > 0))
         hit = reach & (rate > 0)[:, None] & open_radio[None, :] & (draws < rate[:, None])
         for target in np.flatnonzero(hit.any(axis=0)).tolist():
@@ -350,13 +384,25 @@ class World:
             if self.failures[kind][robot] is None and (robot, kind) not in self._pending_recoveries:
                 self._pending_recoveries.append((robot, kind))
 
+    def _radio(self) -> np.ndarray:
+        """``(m,)`` bool: whose radio can link (working, or only isolated by jamming)."""
+        return np.array(
+            [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
+        )
+
     def _compute_links(self) -> np.ndarray:
         """Links now, and jamming isolation: a robot whose every possible link is jammed."""
         positions = self.robot_positions
-        radio = np.array(
-            [f is None or f.cause == "jamming" for f in self.failures["comm"]], dtype=bool
-        )
-        possible = link_matrix(positions, radio, self._no_jamming, self.scenario.comm_range)
+        comm_range = self.scenario.comm_range
+        if not self._comm_zones and comm_range is None:
+            # no jammer and no range: the links follow the radios alone, so they are made again
+            # only when a radio fails or recovers (a copy of them: the links are handed out)
+            radios = tuple(self.failures["comm"])
+            if radios != self._links_for:
+                self._possible = link_matrix(positions, self._radio(), self._no_jamming, comm_range)
+                self._links_for = radios
+            return self.degradations.drop_links(self._possible.copy())
+        possible = link_matrix(positions, self._radio(), self._no_jamming, comm_range)
         if not self._comm_zones:  # no jammer: no robot is isolated by jamming, none recovers
             return self.degradations.drop_links(possible)
         jammed = jammed_by(positions, self._jammer_centers, self._jammer_deltas)
