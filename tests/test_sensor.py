@@ -218,3 +218,26 @@ def test_linearise_gives_the_bits_of_predict_jacobian_and_noise_variance():
         assert np.array_equal(jacobian, sensor.jacobian(robots, targets))
         noise = sensor.noise_variance(sensor.noise_distance(robots, targets, expected_h))
         assert np.array_equal(variance, noise)
+
+
+def test_sample_fast_path_is_the_general_one() -> None:
+    """RangeBearingSensor.sample inlines predict, noise_variance and wrap_angle: the same
+    numbers and draws as the general path a subclass takes."""
+
+    class Same(RangeBearingSensor):  # a subclass: the general path
+        def noise_variance(self, distance):  # type: ignore[no-untyped-def]
+            return super().noise_variance(distance)
+
+    fast = RangeBearingSensor(
+        range_peak=15.0, range_shape=0.3, bearing_peak=20.0, bearing_shape=0.1
+    )
+    slow = Same(range_peak=15.0, range_shape=0.3, bearing_peak=20.0, bearing_shape=0.1)
+    assert fast._own_sample and not slow._own_sample
+    src = np.random.default_rng(7)
+    for _ in range(50):
+        robots, targets = src.uniform(-5, 5, (3, 1, 2)), src.uniform(-5, 5, (1, 4, 2))
+        targets[0, 0] = robots[0, 0]  # zero range
+        for r, t in ((robots, targets), (robots[1, 0], targets[0, 2])):
+            a = fast.sample(r, t, np.random.default_rng(1))
+            b = slow.sample(r, t, np.random.default_rng(1))
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()

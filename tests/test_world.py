@@ -506,3 +506,24 @@ def test_velocity_clip_of_finite_controls_is_the_general_clip() -> None:
         positions = rng.uniform(-1.0, 1.0, (3, 2))
         controls = rng.normal(0.0, 3.0, (3, 2))
         assert clip.finite(positions, controls).tobytes() == clip(positions, controls).tobytes()
+
+
+def test_waypoints_kept_goal_is_the_arrays_one() -> None:
+    """WaypointsMotion keeps goal − position between steps: positions and velocities are those
+    of the array form, step after step, also when the position is set from outside."""
+    from resilient_tracking.models.geometry import vector_length
+
+    motion = {"type": "waypoints", "points": [[1.0, 0.3], [1.3, -2.0], [-0.7, 0.1]]}
+    world = target_world({**motion, "speed": 0.37, "loop": True}, [0.1, 0.2])
+    m = world.targets[0].motion
+    for k in range(300):
+        if k == 100:
+            m.position = np.array([0.5, 0.5])
+        before = (m.position.copy(), m._next_waypoint)
+        m.step(0.1, np.random.default_rng(0))
+        if m._next_waypoint == before[1]:  # along one segment: the array form's numbers
+            delta = m._points[before[1]] - before[0]
+            dist = vector_length(delta)
+            assert m.position.tobytes() == (before[0] + delta / dist * (0.37 * 0.1)).tobytes()
+        delta = m._points[m._next_waypoint] - m.position
+        assert m.velocity.tobytes() == (delta / vector_length(delta) * 0.37).tobytes()

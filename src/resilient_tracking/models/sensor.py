@@ -403,11 +403,33 @@ class RangeBearingSensor(MeasurementModel):
 
     def sample(self, robot: FloatArray, target: FloatArray, rng: np.random.Generator) -> FloatArray:
         """A noisy measurement, noise drawn with variance ``R(d)`` (bearing wrapped)."""
-        clean = self.predict(robot, target)
-        std = np.sqrt(self.noise_variance(clean[..., 0]))
+        if not self._own_sample:
+            clean = self.predict(robot, target)
+            std = np.sqrt(self.noise_variance(clean[..., 0]))
+            z = clean + std * rng.standard_normal(clean.shape)
+            z[..., 1] = wrap_angle(z[..., 1])
+            return z
+        # predict, noise_variance and wrap_angle inline (this class's own): the same
+        # operations without their calls and conversions; the range as a (..., 1) column
+        clean = self._predict(np.asarray(target, dtype=float) - np.asarray(robot, dtype=float))
+        shapes, peaks, cap = self._constants
+        exponent = np.minimum(np.multiply(shapes, clean[..., 0:1]), cap)
+        std = np.sqrt(np.divide(np.exp(exponent), peaks))
         z = clean + std * rng.standard_normal(clean.shape)
-        z[..., 1] = wrap_angle(z[..., 1])
+        bearing = z[..., 1]
+        np.subtract(np.remainder(np.add(bearing, _PI), _TWO_PI), _PI, out=bearing)
         return z
+
+    @functools.cached_property
+    def _own_sample(self) -> bool:
+        """Whether this sensor samples as this class does (a subclass may replace
+        :meth:`predict` or :meth:`noise_variance`)."""
+        cls = type(self)
+        return (
+            cls.predict is RangeBearingSensor.predict
+            and cls._predict is RangeBearingSensor._predict
+            and cls.noise_variance is RangeBearingSensor.noise_variance
+        )
 
     def information(
         self, robot: FloatArray, target: FloatArray, eps: float = PLAN_EPS

@@ -36,7 +36,12 @@ class WaypointsMotion(TargetMotion):
         super().__init__(spec, start)
         #: the points as arrays, once (every step reads them)
         self._points = [np.asarray(p, dtype=float) for p in spec.points]
+        #: and as Python floats
+        self._xy = [(float(x), float(y)) for x, y in self._points]
         self._next_waypoint = 0
+        #: the last _to_goal: its (px, py, waypoint) and (dx, dy, dist)
+        self._goal_for: tuple[float, float, int] | None = None
+        self._goal: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self.velocity = self._waypoint_velocity()
 
     def step(self, dt: float, rng: np.random.Generator) -> None:
@@ -46,11 +51,10 @@ class WaypointsMotion(TargetMotion):
         for _ in range(len(points) + 1):  # bounded: a loop of coincident points ends
             if budget <= 0 or self._next_waypoint >= len(points):
                 break
-            goal = points[self._next_waypoint]
-            delta = goal - self.position
-            dist = vector_length(delta)
+            px, py = self.position.tolist()
+            dx, dy, dist = self._to_goal(px, py)
             if dist <= budget:
-                self.position = goal.copy()
+                self.position = points[self._next_waypoint].copy()
                 budget -= dist
                 self._next_waypoint += 1
                 if self.spec.loop and self._next_waypoint == len(points):
@@ -58,7 +62,6 @@ class WaypointsMotion(TargetMotion):
             else:
                 # position + delta / dist * budget, per component in Python floats: the same
                 # IEEE operations as NumPy's on a 2-vector, without its overhead per call
-                (px, py), (dx, dy) = self.position.tolist(), delta.tolist()
                 self.position = np.array([px + dx / dist * budget, py + dy / dist * budget])
                 budget = 0.0
         self.velocity = self._waypoint_velocity()
@@ -66,12 +69,23 @@ class WaypointsMotion(TargetMotion):
     def _waypoint_velocity(self) -> np.ndarray:
         if self._next_waypoint >= len(self._points):
             return np.zeros(2)
-        delta = self._points[self._next_waypoint] - self.position
-        dist = vector_length(delta)
+        dx, dy, dist = self._to_goal(*self.position.tolist())
         if dist == 0:
             return np.zeros(2)
-        (dx, dy), speed = delta.tolist(), self.spec.speed
+        speed = self.spec.speed
         return np.array([dx / dist * speed, dy / dist * speed])  # delta / dist * speed, as above
+
+    def _to_goal(self, px: float, py: float) -> tuple[float, float, float]:
+        """``delta = goal − position`` of the next waypoint from ``(px, py)`` (the position)
+        and its length. Kept for the position and waypoint it was made for: a step starts
+        where the last velocity was found, so the next step's first one is the same."""
+        key = (px, py, self._next_waypoint)
+        if key != self._goal_for:
+            gx, gy = self._xy[self._next_waypoint]
+            dx, dy = gx - px, gy - py  # goal − position in floats: NumPy's numbers
+            self._goal = (dx, dy, vector_length(np.array([dx, dy])))
+            self._goal_for = key
+        return self._goal
 
 
 @MOTIONS.register("circle")

@@ -145,9 +145,10 @@ class World:
     @property
     def target_states(self) -> np.ndarray:
         """(N, 4) true ``[px, py, vx, vy]``."""
-        states = np.empty((len(self.targets), 4))
-        for row, target in zip(states, self.targets, strict=True):
-            row[:2], row[2:] = target.position, target.velocity
+        motions = [t.motion for t in self.targets]
+        states = np.empty((len(motions), 4))
+        states[:, :2] = [m.position for m in motions]
+        states[:, 2:] = [m.velocity for m in motions]
         return states
 
     def capability_ok(self, kind: FailureKind) -> np.ndarray:
@@ -175,7 +176,7 @@ class World:
     def observe(self) -> TeamObservation:
         """Measurements and self-knowledge at the current step; clears pending events."""
         positions = self.robot_positions
-        targets = np.array([t.position for t in self.targets])
+        targets = np.array([t.motion.position for t in self.targets])
         # Noise is drawn for every pair every step so the stream stays aligned across policies.
         z = self.sensor.sample(positions[:, None, :], targets[None, :, :], self._rng_measurements)
         z = self.degradations.measure(z, self.sensor, positions, targets)
