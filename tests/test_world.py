@@ -527,3 +527,20 @@ def test_waypoints_kept_goal_is_the_arrays_one() -> None:
             assert m.position.tobytes() == (before[0] + delta / dist * (0.37 * 0.1)).tobytes()
         delta = m._points[m._next_waypoint] - m.position
         assert m.velocity.tobytes() == (delta / vector_length(delta) * 0.37).tobytes()
+
+
+def test_small_team_step_in_floats_is_the_array_step() -> None:
+    """World.step clips and moves a small team in Python floats: the same applied velocities
+    and positions as VelocityClip and advance's arrays, at the workspace's edges too."""
+    rng = np.random.default_rng(5)
+    robots = [[3.95, 0.0], [-3.0, 2.95], [0.0, 0.0]]
+    world = World(scenario(robots, u_max=[0.5, 1.0, 2.0]), 0)
+    for _ in range(300):
+        u = rng.normal(0.0, 2.0, (3, 2))
+        u[rng.random((3, 2)) < 0.1] = 0.0
+        positions = world.robot_positions.copy()
+        expected = world._clip(positions, u)
+        applied = world.step(u)
+        assert applied.tobytes() == expected.tobytes()
+        moved = positions + np.multiply(expected, world.dt)
+        assert world.robot_positions.tobytes() == moved.tobytes()

@@ -11,6 +11,7 @@ the robots what they can know: measurements, their own failures, attack clues an
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 from typing import cast
 
@@ -29,6 +30,9 @@ from resilient_tracking.world.targets import TargetTruth
 from resilient_tracking.world.zones import TrueZone
 
 log = logging.getLogger(__name__)
+
+#: up to this many robots, World.step clips and moves them in Python floats
+SMALL_TEAM = 16
 
 
 @dataclass
@@ -246,6 +250,18 @@ class World:
         u = np.asarray(controls, dtype=float)
         if u.shape != (self.n_robots, 2):
             raise ValueError(f"controls have shape {u.shape}, expected ({self.n_robots}, 2)")
+        m = len(u)
+        if m <= SMALL_TEAM:
+            flat = u.ravel().tolist()
+            if math.isfinite(sum(flat)):  # finite sum: every control finite (else the long way)
+                # clip and move in Python floats: the same operations as the arrays' below
+                positions = self.robot_positions.ravel().tolist()
+                applied = self._clip.floats(positions, flat)
+                dt = self.dt
+                moved = [p + v * dt for p, v in zip(positions, applied, strict=True)]
+                self.robot_positions = np.array(moved).reshape(m, 2)
+                self._move_targets()
+                return np.array(applied).reshape(m, 2)
         if np.isfinite(u).all():
             u = self._clip.finite(self.robot_positions, u)  # checked: not again in the clip
         else:
@@ -263,6 +279,10 @@ class World:
         """Advance one step with velocities already clipped by
         :func:`~resilient_tracking.models.robot_motion.clip_velocities`."""
         self.robot_positions = self.robot_positions + np.multiply(applied, self.dt)
+        self._move_targets()
+
+    def _move_targets(self) -> None:
+        """The rest of :meth:`advance` once the robots have moved: targets, then zones."""
         if self._reacting:
             around = self.surroundings()
             for target in self._reacting:
