@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -130,6 +131,31 @@ def test_the_quick_health_check_never_skips_a_repair_near_the_floor(seed):
                 assert not repairs
                 np.testing.assert_array_equal(quick, full)
     assert passed > 0  # the comfortable cases do pass
+
+
+@pytest.mark.parametrize("outer", ["ignore", "warn", "raise"])
+def test_the_quick_health_check_answers_as_numpy_cholesky_whatever_the_errstate(outer):
+    """The quick check runs LAPACK's Cholesky without np.linalg.cholesky's wrapper: it fails
+    a stack exactly where np.linalg.cholesky would, with no warning nor error of its own,
+    whatever the caller's floating-point error settings."""
+    rng = np.random.default_rng(3)
+    factor = rng.standard_normal((3, 4, 4))
+    spd = factor @ np.swapaxes(factor, 1, 2) + 0.1 * np.eye(4)
+    indefinite = spd.copy()
+    indefinite[1] -= 50.0 * np.eye(4)
+    for stack in (spd, indefinite):
+
+        def numpy_says(cov=stack):
+            try:
+                np.linalg.cholesky(cov)
+            except np.linalg.LinAlgError:
+                return False
+            return True
+
+        with warnings.catch_warnings(), np.errstate(all=outer):
+            warnings.simplefilter("error")
+            quick = health._surely_healthy(np.array(stack))
+        assert (quick is not None) == numpy_says()
 
 
 def test_the_belief_asks_for_a_repair_only_when_the_quick_check_fails(monkeypatch):

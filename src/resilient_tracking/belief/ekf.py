@@ -82,6 +82,7 @@ class ExtendedKalmanFilter:
         #: whether each channel's noise variance carries its second-order term
         self.second_order = bool(second_order)
         self._a = model.transition
+        self._at = self._a.T  # (made once: the same view each predict)
         self._q = model.process_noise
 
     def with_update(self, iterations: int, second_order: bool) -> ExtendedKalmanFilter:
@@ -92,8 +93,9 @@ class ExtendedKalmanFilter:
     def predict(self, est: TargetEstimate) -> TargetEstimate:
         """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object)."""
         a = self._a
-        mean = est.mean @ a.T
-        cov = np.einsum("ij,njk,lk->nil", a, est.cov, a) + self._q
+        mean = est.mean @ self._at
+        cov = _einsum("ij,njk,lk->nil", a, est.cov, a)
+        np.add(cov, self._q, out=cov)  # (in place: the same sum, no second array)
         return TargetEstimate.trusted(mean, _symmetrize(cov))
 
     def update(
@@ -220,8 +222,8 @@ class ExtendedKalmanFilter:
             rinv = np.where(valid[..., None], 1.0 / var, 0.0)
 
         # Information contributed to the position block: J = Σ_k Hᵀ R⁻¹ H, b = Σ_k Hᵀ R⁻¹ z̃.
-        info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
-        b = np.einsum("knai,kna,kna->ni", hjac, rinv, innov)
+        info = _einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
+        b = _einsum("knai,kna,kna->ni", hjac, rinv, innov)
 
         # With W = (I + J P_pp)⁻¹ (always invertible, J may be singular):
         #   (P⁻¹ + Eᵀ J E)⁻¹ Eᵀ = P Eᵀ W =: F,  ŷ⁺ = ŷ + F b,  stacked gain K with K H = F J E.
@@ -284,6 +286,13 @@ _EYE2.flags.writeable = _EYE4.flags.writeable = False
 _ONE, _HALF = np.array(1.0), np.array(0.5)
 
 
+try:  # what np.einsum calls when not asked to optimise (the same C routine, same numbers),
+    # without its Python wrapper: the filter's einsums run every tick on tiny arrays
+    from numpy._core.multiarray import c_einsum as _einsum
+except ImportError:  # NumPy 1.x
+    from numpy.core.multiarray import c_einsum as _einsum  # type: ignore[no-redef]
+
+
 @functools.cache
 def _all_true(k: int, n: int) -> NDArray[np.bool_]:
     """``(k, n)`` trues (read-only, shared): every robot measured every target."""
@@ -293,4 +302,6 @@ def _all_true(k: int, n: int) -> NDArray[np.bool_]:
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:
-    return np.asarray(np.multiply(_HALF, cov + cov.swapaxes(-1, -2)), dtype=float)
+    """``(P + Pᵀ)/2`` (halved in place in the sum's own array)."""
+    out = cov + cov.swapaxes(-1, -2)
+    return np.multiply(_HALF, out, out=out)

@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.linalg import _umath_linalg  # type: ignore[attr-defined]
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -118,11 +119,18 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
         return None
-    try:
-        np.linalg.cholesky(sym - shift * _eye(cov.shape[-1]))
-    except np.linalg.LinAlgError:
-        return None
+    # LAPACK's Cholesky as np.linalg.cholesky runs it, without its checks of the (known) shapes
+    # and types: a failed factorisation sets the invalid flag, raised here as an error (the
+    # other flags ignored, as np.linalg.cholesky does)
+    with np.errstate(invalid="raise", over="ignore", divide="ignore", under="ignore"):
+        try:
+            _cholesky(sym - shift * _eye(cov.shape[-1]), signature="d->d")
+        except FloatingPointError:
+            return None
     return sym
+
+
+_cholesky = _umath_linalg.cholesky_lo
 
 
 @functools.cache
