@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from numpy.linalg import _umath_linalg  # type: ignore[attr-defined]
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
@@ -230,7 +231,7 @@ class ExtendedKalmanFilter:
         # The covariance is then formed in Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, where
         # K R Kᵀ = F J Fᵀ: a sum of congruences, so it stays positive definite numerically.
         m = _EYE2 + info @ cov[:, :2, :2]
-        f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
+        f = _solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
         f_info = f @ info
         kh = np.zeros((n, 4, 4))
@@ -291,6 +292,17 @@ try:  # what np.einsum calls when not asked to optimise (the same C routine, sam
     from numpy._core.multiarray import c_einsum as _einsum
 except ImportError:  # NumPy 1.x
     from numpy.core.multiarray import c_einsum as _einsum  # type: ignore[no-redef]
+
+
+def _solve(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``np.linalg.solve(a, b)`` for float64 stacks ``(N, n, n)``, ``(N, n, m)``: its LAPACK
+    gufunc, called as it calls it (a singular ``a`` sets the invalid flag: LinAlgError),
+    without its checks of shapes and types the filter already knows."""
+    with np.errstate(invalid="raise", over="ignore", divide="ignore", under="ignore"):
+        try:
+            return _umath_linalg.solve(a, b, signature="dd->d")  # type: ignore[no-any-return]
+        except FloatingPointError:
+            raise np.linalg.LinAlgError("Singular matrix") from None
 
 
 @functools.cache
