@@ -234,9 +234,10 @@ class ExtendedKalmanFilter:
         f = _solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
         f_info = f @ info
-        kh = np.zeros((n, 4, 4))
-        kh[:, :, :2] = f_info
-        i_kh = _EYE4 - kh
+        # I − KH, KH = [F J, 0]: the identity's last two columns as they are (1 − 0 and 0 − 0
+        # are exact), the first two I − F J
+        i_kh = _eye4_stack(n).copy()
+        np.subtract(_EYE4[:, :2], f_info, out=i_kh[:, :, :2])
         joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f_info @ f.swapaxes(1, 2)
         new_cov = _symmetrize(joseph)
         updated = TargetEstimate.trusted(new_mean, new_cov)
@@ -303,6 +304,14 @@ def _solve(a: FloatArray, b: FloatArray) -> FloatArray:
             return _umath_linalg.solve(a, b, signature="dd->d")  # type: ignore[no-any-return]
         except FloatingPointError:
             raise np.linalg.LinAlgError("Singular matrix") from None
+
+
+@functools.cache
+def _eye4_stack(n: int) -> FloatArray:
+    """``n`` 4×4 identities (read-only, shared: copied before use)."""
+    eyes = np.repeat(_EYE4[None], n, axis=0)
+    eyes.flags.writeable = False
+    return eyes
 
 
 @functools.cache

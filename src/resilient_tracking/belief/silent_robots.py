@@ -69,7 +69,8 @@ class SilentRobotWatch:
         """Watch this tick's silent robots; learn what they reveal; one event per finding."""
         s = self.settings
         events: list[Event] = []
-        linked = cast(list[bool], obs.links.any(axis=1).tolist())
+        # (the ufunc's reduction itself: ndarray.any's Python wrapper costs more than it does)
+        linked = cast(list[bool], np.logical_or.reduce(obs.links, axis=1).tolist())
         if not self._silent and all(linked):  # the usual tick: nobody to watch, nobody to forget
             return []  # (the watcher keeps a robot only while it is silent, as it was last tick)
         listeners = [i for i, has_link in enumerate(linked) if has_link]
