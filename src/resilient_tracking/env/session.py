@@ -91,7 +91,8 @@ class TrackingSession:
         lower, upper = stepper.team.config.velocity_bounds(
             list(range(len(controls))), obs.positions
         )
-        controls = np.clip(np.asarray(controls, dtype=float), lower, upper)
+        # (np.clip's numbers, without its Python wrapper)
+        controls = np.minimum(np.maximum(np.asarray(controls, dtype=float), lower), upper)
         trace_before = self.trace
         decision = self._expert_decision
         if decision is None or not np.array_equal(controls, decision.controls):

@@ -55,8 +55,8 @@ def decision_problems(
         controls = None
     if controls is not None:
         lower, upper = config.velocity_bounds(list(range(m)), positions)
-        # the usual decision, every control finite and within its bounds, passes in one test
-        if not (np.isfinite(controls).all() and _within(controls, lower, upper)):
+        # the usual decision passes in one test: a control within its (finite) bounds is finite
+        if not _within(controls, lower, upper):
             problems += _control_problems(controls, lower, upper)
     modes = decision.modes
     if not (isinstance(modes, list | tuple) and len(modes) == m):
@@ -69,7 +69,7 @@ def decision_problems(
 
 
 def _within(controls: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
-    """Whether every (finite) control is within its bounds, to the tolerance."""
+    """Whether every control is within its bounds, to the tolerance (NaN is not)."""
     lo, hi = np.subtract(lower, BOUND_TOLERANCE), np.add(upper, BOUND_TOLERANCE)
     return bool(((controls >= lo) & (controls <= hi)).all())
 
