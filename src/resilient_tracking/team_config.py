@@ -57,10 +57,20 @@ class TeamConfig:
     def _bounds(
         self, umax: np.ndarray, negative: np.ndarray, x: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        # (ufuncs called by name: faster than the operators with a Python float, same numbers)
-        lower = np.minimum(np.maximum(negative, np.divide(self.lower - x, self.dt)), 0.0)
-        upper = np.maximum(np.minimum(umax, np.divide(self.upper - x, self.dt)), 0.0)
+        # room to each corner, (corner − x) / dt, for both corners in one pass (elementwise:
+        # the same numbers as one corner at a time)
+        corners, dt, zero = self._corners
+        to_lower, to_upper = np.divide(np.subtract(corners, x), dt)
+        lower = np.minimum(np.maximum(negative, to_lower), zero)
+        upper = np.maximum(np.minimum(umax, to_upper), zero)
         return lower, upper
+
+    @functools.cached_property
+    def _corners(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The workspace corners as ``(2, 1, 2)`` (lower, upper), ``dt`` and 0 as 0-d arrays
+        (faster in NumPy operations than Python floats, the same numbers)."""
+        corners = np.array([self.lower, self.upper], dtype=float).reshape(2, 1, 2)
+        return corners, np.array(float(self.dt)), np.array(0.0)
 
     @functools.cached_property
     def _team_umax(self) -> tuple[np.ndarray, np.ndarray]:

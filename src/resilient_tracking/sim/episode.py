@@ -54,7 +54,8 @@ def check_finite(step: int, quantities: dict[str, Any]) -> None:
     array) that holds a number that is not finite."""
     for name, value in quantities.items():
         # a finite sum has finite terms: the elementwise test only when the sum is not finite
-        if not math.isfinite(np.add.reduce(value, axis=None)) and not np.isfinite(value).all():
+        total = value if isinstance(value, float) else np.add.reduce(value, axis=None)
+        if not math.isfinite(total) and not np.isfinite(value).all():
             raise NonFiniteError(f"step {step}: {name} is not finite")
 
 
