@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import os
 import platform
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -90,3 +92,25 @@ def _plain(value: Any) -> Any:
     if isinstance(value, np.ndarray):
         return value.tolist()
     return float(value)
+
+
+def run_in_tree(source: str | None, module: str, function: str, *args: Any) -> Any:
+    """``module.function(*args)`` (``args`` and its result JSON) in a fresh process whose
+    ``resilient_tracking`` is imported from the source tree ``source`` (the folder holding
+    it; ``None``: the installed one), the benchmarks from this checkout."""
+    env = dict(os.environ)
+    if source is not None:
+        env["PYTHONPATH"] = str(Path(source).resolve())
+    code = (
+        f"import sys, json, importlib; sys.path.insert(1, {str(ROOT)!r}); "
+        f"f = getattr(importlib.import_module({module!r}), {function!r}); "
+        "print(json.dumps(f(*json.loads(sys.argv[1]))))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, json.dumps(args)],
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])

@@ -4,12 +4,15 @@ as a vector of processes (Gymnasium's ``AsyncVectorEnv``, one per core), with th
 recorded (the default) and without (``record=False``); then where one step's time goes, part by
 part.
 
-    python -m benchmarks.env_steps            # about a minute
-    python -m benchmarks.env_steps --quick    # a smoke run
+    python -m benchmarks.env_steps                        # about a minute
+    python -m benchmarks.env_steps --quick                # a smoke run
+    python -m benchmarks.env_steps --before ../old/src    # and another source tree, side by side
 
 Each measurement first runs a few steps untimed (imports, first allocations). Steps count every
 ``step`` call; an episode that ends is reset (its reset is timed too). The random velocities are
-drawn before the clock starts, so the numbers are the environment's alone.
+drawn before the clock starts, so the numbers are the environment's alone. With ``--before``,
+the 3×3 ``record=False`` case also runs in fresh processes, this checkout's code and the other
+tree's in turn, ``--rounds`` times each: the best CPU time per step of each and their ratio.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.common import machine, save, table
+from benchmarks.common import machine, run_in_tree, save, table
 
 CASES = (("sensing-temp", "3×3"), ("soak-20x20", "20×20"))
 
@@ -144,9 +147,28 @@ def parts(name: str, steps: int, record: bool = True) -> dict[str, float]:
     }
 
 
+def cpu_us_per_step(name: str, steps: int) -> float:
+    """CPU µs per step of :func:`one_process` with ``record=False`` (a child's job)."""
+    return 1e6 / one_process(name, steps, record=False)[1]
+
+
+def side_by_side(before: str, name: str, steps: int, rounds: int) -> dict[str, float]:
+    """The best CPU µs per step of the ``before`` tree's code and of this checkout's, in fresh
+    processes taken in turn, and the speed-up."""
+    best = {"before": float("inf"), "after": float("inf")}
+    for k in range(rounds):
+        order = [("before", before), ("after", None)]
+        for label, tree in order if k % 2 == 0 else order[::-1]:
+            us = run_in_tree(tree, "benchmarks.env_steps", "cpu_us_per_step", name, steps)
+            best[label] = min(best[label], us)
+    return best | {"speed-up": best["before"] / best["after"]}
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--before", help="source tree (the folder holding resilient_tracking)")
+    parser.add_argument("--rounds", type=int, default=6, help="side-by-side rounds per tree")
     args = parser.parse_args(argv)
     scale = 0.1 if args.quick else 1.0
     workers = os.cpu_count() or 1
@@ -187,7 +209,18 @@ def main(argv: list[str] | None = None) -> None:
             ["µs per step", *columns],
         )
     )
-    path = save("env_steps", {"machine": machine(), "steps_per_s": results, "parts_us": split})
+    saved: dict[str, object] = {"machine": machine(), "steps_per_s": results, "parts_us": split}
+    if args.before:
+        compared = side_by_side(args.before, bare_name, int(3000 * scale), args.rounds)
+        print(f"\n3×3 ({bare_name}), record=False, best CPU µs per step over {args.rounds} rounds:")
+        print(
+            table(
+                [[label, value] for label, value in compared.items()],
+                [f"before: {args.before}", "CPU µs per step (speed-up: ratio)"],
+            )
+        )
+        saved["side_by_side"] = {"before_tree": args.before, **compared}
+    path = save("env_steps", saved)
     print(f"\nsaved {path}")
 
 

@@ -17,12 +17,7 @@ planning* is the episode's wall time less the solver ladder's (``timing.parquet`
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
-import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -84,13 +79,14 @@ def measure(name: str, policy: str, seed: int) -> dict[str, float]:
     return out_ms
 
 
-def child(cases: list[tuple[str, str, int]]) -> None:
-    """Run in a fresh process: every case once untimed, then once timed; print JSON."""
+def child(cases: list[list[Any]]) -> dict[str, Any]:
+    """Run in a fresh process: every case once untimed, then once timed."""
+    cases_ = [(str(n), str(p), int(seed)) for n, p, seed in cases]
     try:
         from resilient_tracking.planning.nlp_cache import wait_for_compilers
     except ImportError:  # pragma: no cover - an old tree
         wait_for_compilers = None  # type: ignore[assignment]
-    for case in cases:
+    for case in cases_:
         measure(*case)
     if wait_for_compilers is not None:
         wait_for_compilers()
@@ -100,31 +96,11 @@ def child(cases: list[tuple[str, str, int]]) -> None:
         wait_for_sog_compilers()
     except ImportError:  # a tree before the SOG fast path
         pass
-    print(json.dumps({"/".join(map(str, case)): measure(*case) for case in cases}))
-
-
-def run_tree(source: str | None, cases: list[tuple[str, str, int]]) -> dict[str, Any]:
-    env = dict(os.environ)
-    if source is not None:
-        env["PYTHONPATH"] = str(Path(source).resolve())
-    here = Path(__file__).resolve().parents[1]
-    code = (
-        f"import sys, json; sys.path.insert(1, {str(here)!r}); "
-        "from benchmarks.episode_parts import child; "
-        "child([tuple(c) for c in json.loads(sys.argv[1])])"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code, json.dumps(cases)],
-        env=env,
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return {"/".join(map(str, case)): measure(*case) for case in cases_}
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
-    from benchmarks.common import machine, save, table
+    from benchmarks.common import machine, run_in_tree, save, table
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--before", help="source tree (the folder holding resilient_tracking)")
@@ -138,7 +114,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     for k in range(repeats):
         order = list(trees) if k % 2 == 0 else list(trees)[::-1]
         for label in order:
-            rounds[label].append(run_tree(trees[label], cases))  # type: ignore[arg-type]
+            timed = run_in_tree(trees[label], "benchmarks.episode_parts", "child", cases)
+            rounds[label].append(timed)
     results: dict[str, Any] = {"machine": machine(), "before_tree": args.before, "cases": {}}
     for case in cases:
         key = "/".join(map(str, case))
