@@ -77,16 +77,23 @@ def team_views(
     leading axis of the ``M`` robots; ``u_max`` ``(M,)`` are their speed bounds."""
     m = obs.n_robots
     league_of = belief.league_of
-    own = np.empty((m, 8), dtype=np.float32)
-    own[:, :2] = obs.positions
-    own[:, 2] = u_max
-    own[:, 3] = obs.sensing_ok
-    own[:, 4] = obs.comm_ok
-    own[:, 5:7] = [
-        (p == "permanent", q == "permanent")
-        for p, q in zip(obs.sensing_persistence, obs.comm_persistence, strict=True)
-    ]
-    own[:, 7] = obs.time
+    # the rows as Python numbers, made float32 in one call (the same rounding as NumPy's cast)
+    time = float(obs.time)
+    own = np.array(
+        [
+            [*xy, bound, sensing, comm, p == "permanent", q == "permanent", time]
+            for xy, bound, sensing, comm, p, q in zip(
+                obs.positions.tolist(),
+                u_max.tolist(),
+                obs.sensing_ok.tolist(),
+                obs.comm_ok.tolist(),
+                obs.sensing_persistence,
+                obs.comm_persistence,
+                strict=True,
+            )
+        ],
+        dtype=np.float32,
+    )
     if len(belief.estimates) == 1:  # one league: every robot sees the same estimate
         means = np.empty((m, *belief.estimates[0].mean.shape), dtype=np.float32)
         covs = np.empty((m, *belief.estimates[0].cov.shape), dtype=np.float32)
