@@ -168,3 +168,24 @@ def test_the_team_s_velocity_bounds_follow_the_positions_they_are_asked_for():
     assert moved[1][0, 0] < first[1][0, 0]
     with pytest.raises(ValueError, match="read-only"):
         moved[0][0, 0] = 0.0
+
+
+def test_small_team_bounds_test_is_numpys() -> None:
+    # Up to SMALL_TEAM robots the bounds test runs in Python floats; it must answer as the
+    # NumPy path does (lists of bounds take that path), at the tolerance's edges, NaN and ±inf.
+    from resilient_tracking.policies.checks import BOUND_TOLERANCE, SMALL_TEAM, _within
+
+    rng = np.random.default_rng(3)
+    edges = [np.nan, np.inf, -np.inf, 1.0 + BOUND_TOLERANCE, -1.0 - BOUND_TOLERANCE, 1.0, -1.0]
+    answers = set()
+    for trial in range(3000):
+        m = 1 + trial % SMALL_TEAM
+        lower, upper = -np.ones((m, 2)), np.ones((m, 2))
+        controls = rng.uniform(-1.0, 1.0, size=(m, 2))
+        if trial % 3:
+            controls.flat[rng.integers(2 * m)] = edges[trial % len(edges)]
+            controls.flat[rng.integers(2 * m)] += rng.choice([-1, 1]) * rng.uniform(0, 3e-6)
+        expected = _within(controls, lower.tolist(), upper.tolist())
+        assert _within(controls, lower, upper) == expected
+        answers.add(expected)
+    assert answers == {True, False}
