@@ -69,7 +69,7 @@ class TargetEstimate:
 
     def position_trace(self) -> float:
         """``Σ_j tr P_j[:2, :2]`` — the tracking-error measure of the paper."""
-        return float(self.position_traces().sum())
+        return float(np.add.reduce(self.position_traces()))  # (ndarray.sum's, sans wrapper)
 
     @classmethod
     def initial(cls, means: FloatArray, position_std: float, velocity_std: float) -> TargetEstimate:
