@@ -189,3 +189,37 @@ def test_small_team_bounds_test_is_numpys() -> None:
         assert _within(controls, lower, upper) == expected
         answers.add(expected)
     assert answers == {True, False}
+
+
+def test_small_team_velocity_bounds_are_numpys_bit_for_bit() -> None:
+    # Up to SMALL_TEAM robots the team's bounds are worked out in Python floats; they must be
+    # NumPy's bytes (±0 included), inside, on and beyond the workspace's edges; NaN takes
+    # NumPy's path.
+    import dataclasses
+
+    from resilient_tracking.build import team_config
+    from resilient_tracking.team_config import SMALL_TEAM
+
+    base = team_config(shipped("sensing-temp"))
+    rng = np.random.default_rng(7)
+    edges = [0.0, -0.0, 4.0, -4.0, 3.0, -3.0, 4.0 + 1e-12, np.inf, -np.inf]
+    for trial in range(2000):
+        m = 1 + trial % SMALL_TEAM
+        u_max = rng.choice([0.0, 0.5, 1.0, 2.0, np.inf], size=m)
+        config = dataclasses.replace(base, u_max=u_max)
+        positions = rng.uniform(-5.0, 5.0, size=(m, 2))
+        for _ in range(trial % 4):
+            positions.flat[rng.integers(2 * m)] = rng.choice(edges)
+        floats = config._bounds_floats(positions.tolist())
+        assert floats is not None
+        numpys = config._bounds(*config._team_umax, positions)
+        for a, b in zip(floats, numpys, strict=True):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()
+        assert all(
+            a.tobytes() == b.tobytes()
+            for a, b in zip(config.velocity_bounds(list(range(m)), positions), numpys, strict=True)
+        )
+    positions[0, 0] = np.nan
+    assert config._bounds_floats(positions.tolist()) is None
+    with_nan = config.velocity_bounds(list(range(len(positions))), positions)
+    assert np.isnan(with_nan[0][0, 0]) and np.isnan(with_nan[1][0, 0])

@@ -11,6 +11,9 @@ import numpy as np
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.sensor import MeasurementModel
 
+#: Most robots whose bounds :meth:`TeamConfig.velocity_bounds` works out in Python floats
+SMALL_TEAM = 16
+
 
 @dataclass(frozen=True)
 class TeamConfig:
@@ -45,7 +48,10 @@ class TeamConfig:
             memo = self._team_bounds
             if memo and memo[0] == key and memo[1] == positions.shape:
                 return memo[2], memo[3]
-            lower, upper = self._bounds(*self._team_umax, positions)
+            bounds = None
+            if 0 < len(positions) <= SMALL_TEAM and positions.ndim == 2 and positions.shape[1] == 2:
+                bounds = self._bounds_floats(positions.tolist())
+            lower, upper = bounds or self._bounds(*self._team_umax, positions)
             lower.flags.writeable = upper.flags.writeable = False
             memo[:] = [key, positions.shape, lower, upper]
             return lower, upper
@@ -64,6 +70,36 @@ class TeamConfig:
         lower = np.minimum(np.maximum(negative, to_lower), zero)
         upper = np.maximum(np.minimum(umax, to_upper), zero)
         return lower, upper
+
+    def _bounds_floats(self, rows: list[list[float]]) -> tuple[np.ndarray, np.ndarray] | None:
+        """:meth:`_bounds` for the whole team, a small one, in Python floats: the same IEEE
+        operations per component, ties of ``max``/``min`` giving the second operand as
+        NumPy's do (±0). ``None`` (NumPy's path, which propagates it) when a NaN turns up."""
+        if self._floats is None:
+            return None
+        (lx, ly, ux, uy), dt, umaxes = self._floats
+        lower, upper = [], []
+        for (x, y), umax in zip(rows, umaxes, strict=True):
+            negative = -umax
+            for to_l, to_u in (((lx - x) / dt, (ux - x) / dt), ((ly - y) / dt, (uy - y) / dt)):
+                if to_l != to_l or to_u != to_u:
+                    return None
+                low = negative if negative > to_l else to_l  # np.maximum(negative, to_lower)
+                lower.append(low if low < 0.0 else 0.0)  # np.minimum(…, 0)
+                high = umax if umax < to_u else to_u  # np.minimum(umax, to_upper)
+                upper.append(high if high > 0.0 else 0.0)  # np.maximum(…, 0)
+        both = np.array(lower + upper).reshape(2, len(rows), 2)  # (one array: fewer calls)
+        return both[0], both[1]
+
+    @functools.cached_property
+    def _floats(self) -> tuple[list[float], float, list[float]] | None:
+        """The corners ``[lx, ly, ux, uy]``, ``dt`` and ``u_max`` as Python floats (``None``
+        if ``u_max`` holds NaN: NumPy's path)."""
+        corners, dt, _ = self._corners
+        umax = self._team_umax[0]
+        if corners.size != 4 or np.isnan(umax).any():
+            return None
+        return corners.ravel().tolist(), float(dt), umax.ravel().tolist()
 
     @functools.cached_property
     def _corners(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
