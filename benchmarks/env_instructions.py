@@ -78,7 +78,10 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--before", help="source tree (the folder holding resilient_tracking)")
     parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--quick", action="store_true", help="100 steps: a smoke run")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.steps = 100
     if shutil.which("valgrind") is None:
         parser.exit(2, "valgrind is not on the PATH (Debian: apt install valgrind)\n")
     trees = {"this checkout": None} | ({"before": args.before} if args.before else {})
