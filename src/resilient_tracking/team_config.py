@@ -9,10 +9,8 @@ from typing import Any
 import numpy as np
 
 from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.models.robot_motion import SMALL_TEAM
 from resilient_tracking.models.sensor import MeasurementModel
-
-#: Most robots whose bounds :meth:`TeamConfig.velocity_bounds` works out in Python floats
-SMALL_TEAM = 16
 
 
 @dataclass(frozen=True)

@@ -36,10 +36,11 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numpy.linalg import _umath_linalg  # type: ignore[attr-defined]
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.belief.numpy_direct import einsum as _einsum
+from resilient_tracking.belief.numpy_direct import solve as _solve
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.sensor import MeasurementModel, wrap_angle
 
@@ -286,24 +287,6 @@ _EYE2, _EYE4 = np.eye(2), np.eye(4)
 _EYE2.flags.writeable = _EYE4.flags.writeable = False
 #: 1 and ½ as 0-d float64 arrays (faster than Python floats in NumPy operations, same numbers)
 _ONE, _HALF = np.array(1.0), np.array(0.5)
-
-
-try:  # what np.einsum calls when not asked to optimise (the same C routine, same numbers),
-    # without its Python wrapper: the filter's einsums run every tick on tiny arrays
-    from numpy._core.multiarray import c_einsum as _einsum
-except ImportError:  # NumPy 1.x
-    from numpy.core.multiarray import c_einsum as _einsum  # type: ignore[no-redef]
-
-
-def _solve(a: FloatArray, b: FloatArray) -> FloatArray:
-    """``np.linalg.solve(a, b)`` for float64 stacks ``(N, n, n)``, ``(N, n, m)``: its LAPACK
-    gufunc, called as it calls it (a singular ``a`` sets the invalid flag: LinAlgError),
-    without its checks of shapes and types the filter already knows."""
-    with np.errstate(invalid="raise", over="ignore", divide="ignore", under="ignore"):
-        try:
-            return _umath_linalg.solve(a, b, signature="dd->d")  # type: ignore[no-any-return]
-        except FloatingPointError:
-            raise np.linalg.LinAlgError("Singular matrix") from None
 
 
 @functools.cache

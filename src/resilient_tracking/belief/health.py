@@ -18,8 +18,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.linalg import _umath_linalg  # type: ignore[attr-defined]
 from numpy.typing import NDArray
+
+from resilient_tracking.belief.numpy_direct import cholesky_exists
 
 FloatArray = NDArray[np.float64]
 
@@ -119,18 +120,9 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
         return None
-    # LAPACK's Cholesky as np.linalg.cholesky runs it, without its checks of the (known) shapes
-    # and types: a failed factorisation sets the invalid flag, raised here as an error (the
-    # other flags ignored, as np.linalg.cholesky does)
-    with np.errstate(invalid="raise", over="ignore", divide="ignore", under="ignore"):
-        try:
-            _cholesky(sym - shift * _eye(cov.shape[-1]), signature="d->d")
-        except FloatingPointError:
-            return None
+    if not cholesky_exists(sym - shift * _eye(cov.shape[-1])):
+        return None
     return sym
-
-
-_cholesky = _umath_linalg.cholesky_lo
 
 
 @functools.cache

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from resilient_tracking.models.robot_motion import SMALL_TEAM
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.team_config import TeamConfig
 
@@ -66,10 +67,6 @@ def decision_problems(
     elif not all(isinstance(x, str) for x in modes):
         problems.append(DecisionProblem(None, "modes", "modes must be strings"))
     return controls, problems
-
-
-#: Most robots whose controls :func:`_within` tests in Python floats (fewer calls than NumPy's)
-SMALL_TEAM = 16
 
 
 def _within(controls: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:

@@ -19,7 +19,7 @@ import numpy as np
 
 from resilient_tracking.events import Event
 from resilient_tracking.models.geometry import row_norms
-from resilient_tracking.models.robot_motion import VelocityClip
+from resilient_tracking.models.robot_motion import SMALL_TEAM, VelocityClip
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import CommZone, Scenario
@@ -30,9 +30,6 @@ from resilient_tracking.world.targets import TargetTruth
 from resilient_tracking.world.zones import TrueZone
 
 log = logging.getLogger(__name__)
-
-#: up to this many robots, World.step clips and moves them in Python floats
-SMALL_TEAM = 16
 
 
 @dataclass
