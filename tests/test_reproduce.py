@@ -213,7 +213,7 @@ def test_claims_fail_when_the_numbers_say_so():
     assert [c.holds for c in check(catalog()["bench-complex"], complex_)] == [True, False]
 
 
-def test_adversarial_experiment_runs_three_teams_on_each_adversarial_scenario():
+def test_adversarial_experiment_runs_three_teams_on_each_scenario_and_the_guard_on_lures():
     exp = catalog()["adversarial"]
     assert exp.seeds == 10
     cases = exp.generated()
@@ -221,13 +221,22 @@ def test_adversarial_experiment_runs_three_teams_on_each_adversarial_scenario():
     suite = cases[len(ADVERSARIAL) :]
     assert [s.name for s, _ in suite] == [s.name for s in stored_adversarial_suite()]
     assert len(suite) == ADVERSARIAL_SUITE_SIZE
+    arms = {t.variant.label: t.scenario for t in tasks(exp)}
     for scenario, variants in cases:
         teams = {v.tags["team"]: v for v in variants}
-        assert set(teams) == {"vanilla", "paper", "extended"}
+        lures = scenario in [s for s, _ in cases[: len(ADVERSARIAL)]] and scenario.name.startswith(
+            "lure"
+        )
+        assert set(teams) == {"vanilla", "paper", "extended"} | ({"guarded"} if lures else set())
         assert teams["vanilla"].policy == "vanilla" and not teams["paper"].overrides
-        arm = [t for t in tasks(exp) if t.variant == teams["extended"]][0]
-        assert arm.scenario.estimator.type == "adaptive"
+        extended = arms[teams["extended"].label]
+        assert extended.estimator.type == "adaptive"
+        assert not extended.policy.params_for("failure_aware").lure_guard  # type: ignore[attr-defined]
         assert scenario.estimator.type == "ekf"
+        if lures:
+            guarded = arms[teams["guarded"].label]
+            assert guarded.estimator.type == "adaptive"
+            assert guarded.policy.params_for("failure_aware").lure_guard  # type: ignore[attr-defined]
     assert {v.max_seeds for _, variants in suite for v in variants} == {ADVERSARIAL_SUITE_SEEDS}
     assert {v.tags["part"] for _, variants in suite for v in variants} == {"suite"}
 
@@ -238,7 +247,7 @@ def test_the_stored_adversarial_suite_is_what_the_generator_draws():
     assert head == [s.model_dump() for s in stored_adversarial_suite(2)]
 
 
-def test_adversarial_figures_are_bands_per_scenario_of_its_three_teams(tmp_path):
+def test_adversarial_figures_are_bands_per_scenario_of_its_teams(tmp_path):
     from resilient_tracking.experiments.report_figures import figure_jobs
 
     exp = catalog()["adversarial"]
@@ -247,20 +256,25 @@ def test_adversarial_figures_are_bands_per_scenario_of_its_three_teams(tmp_path)
     bands = {job.path.name: job for job in jobs if job.path.name.startswith("bands-")}
     assert set(bands) == {f"bands-{name}.png" for name in ADVERSARIAL}  # not the suite's
     teams = bands["bands-lure-comm.png"].args[0]
-    assert set(teams) == {"lure-comm-vanilla", "lure-comm-paper", "lure-comm-extended"}
+    assert set(teams) == {
+        "lure-comm-vanilla",
+        "lure-comm-paper",
+        "lure-comm-extended",
+        "lure-comm-guarded",
+    }
 
 
 def test_adversarial_targets_fail_when_the_numbers_say_so():
     exp = catalog()["adversarial"]
-    teams = ["vanilla", "paper", "extended"] * 2
+    teams = ["vanilla", "paper", "extended", "guarded"] * 2
     rows = _summary(
-        tag_scenario=["lure-comm"] * 6,
+        tag_scenario=["lure-comm"] * 8,
         tag_team=teams,
-        seed=[1, 1, 1, 2, 2, 2],
-        trace=[3.0, 2.0, 1.0, 3.0, 2.0, 1.5],  # extended lowest
-        mse=[1.0, 2.0, 1.5, 1.0, 2.0, 1.5],  # below the paper's team, above vanilla
-        losses_known_permanent=[0, 0, 0, 0, 0, 0],
-        losses_unknown_permanent=[2, 2, 1, 2, 2, 0],  # 0.5 vs 2 per run
+        seed=[1] * 4 + [2] * 4,
+        trace=[3.0, 2.0, 1.0, 2.2, 3.0, 2.0, 1.5, 2.2],  # extended lowest; guarded 1.1× paper
+        mse=[1.0, 2.0, 1.5, 1.5, 1.0, 2.0, 1.5, 1.5],  # below the paper's team, above vanilla
+        losses_known_permanent=[0] * 8,
+        losses_unknown_permanent=[2, 2, 2, 1, 2, 2, 2, 0],  # guarded: 0.5 vs 2 per run
     )
     holds = {c.statement: c.holds for c in check(exp, rows)}
     assert holds == {
@@ -268,8 +282,8 @@ def test_adversarial_targets_fail_when_the_numbers_say_so():
         "lure-comm: the extended team has a lower mean mse than the paper's team": True,
         "lure-comm: the extended team has a lower mean trace than vanilla": True,
         "lure-comm: the extended team has a lower mean mse than vanilla": False,
-        "lure-comm: permanent losses per run at most 50% of the paper team's, at a trace at "
-        "most 1.2× its": True,
+        "lure-comm: with the lure guard, permanent losses per run at most 50% of the paper "
+        "team's, at a trace at most 1.2× its": True,
     }
     evidence = [c.evidence for c in check(exp, rows)]
     assert "difference 95 % CI [" in evidence[0] and "lower in 2/2 seeds" in evidence[0]

@@ -46,7 +46,8 @@ def test_a_target_that_stops_after_moving_becomes_suspect_and_a_moving_one_does_
     assert {e.cause for e in events} == {"linger"}
     assert {e.robot for e in events} == {0, 1}
     first = min(e.step for e in events)
-    assert 40 < first < 40 + 20 + LureGuardParams().linger_steps + 2
+    params = LureGuardParams()
+    assert 40 < first < 40 + params.window + params.linger_steps + 2
 
 
 def test_a_target_that_never_moved_is_not_suspect():

@@ -63,6 +63,7 @@ def _oracle(watch: SuspectWatch, world: World, oracle: str, latency: int) -> Any
         since[now & (since < 0)] = step
         since[~now] = -1
         watch.suspect[:, :] = (now & (step - since >= latency))[None, :]
+        watch.surges.surging[:, :] = False  # (the guard's own cues make no difference)
         return events
 
     return observed

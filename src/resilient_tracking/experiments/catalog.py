@@ -33,6 +33,7 @@ from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import (
     ADVERSARIAL_TEAM,
     BEYOND_TEAM,
+    GUARDED_TEAM,
     PAPER_METHOD,
     apply_overrides,
 )
@@ -263,11 +264,26 @@ def adversarial_cases(
     ``suite_size`` scenarios of the stored adversarial suite (of those with at most
     ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
     ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
-    the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`). Arms are tagged with
-    the scenario and the team (``vanilla``, ``paper``, ``extended``)."""
+    the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`); a shipped scenario
+    whose targets lure has a fourth, the extended team with the lure guard
+    (:data:`GUARDED_TEAM`). Arms are tagged with the scenario and the team (``vanilla``,
+    ``paper``, ``extended``, ``guarded``)."""
     shipped = _shipped(names, scenario_dir)
     generated = _small(stored_adversarial_suite(), max_pairs)[:suite_size]
-    return _with_three_teams(shipped, generated, ADVERSARIAL_TEAM, suite_seeds)
+    cases = _with_three_teams(shipped, generated, ADVERSARIAL_TEAM, suite_seeds)
+    # where a shipped scenario's targets lure, a fourth arm: the extended team with the lure guard
+    guarded = {s.name for s in shipped if _lures(s)}
+    return [
+        (s, arms + (_arm(s.name, "guarded", "failure_aware", GUARDED_TEAM, "shipped"),))
+        if s.name in guarded and arms[0].tags["part"] == "shipped"
+        else (s, arms)
+        for s, arms in cases
+    ]
+
+
+def _lures(scenario: Scenario) -> bool:
+    """Whether a target of ``scenario`` moves as a lure."""
+    return any(t.motion.type == "lure" for t in scenario.targets)
 
 
 #: The shipped scenarios of the world's features beyond the paper (docs/model.md §2).
@@ -294,14 +310,26 @@ def _three_teams(
         ("extended", "failure_aware", extended),
     )
     return tuple(
-        Variant(
-            f"{name}-{team}",
-            policy,
-            dict(overrides),
-            tags={"scenario": name, "team": team, "part": part},
-            max_seeds=max_seeds,
-        )
-        for team, policy, overrides in arms
+        _arm(name, team, policy, overrides, part, max_seeds) for team, policy, overrides in arms
+    )
+
+
+def _arm(
+    name: str,
+    team: str,
+    policy: str,
+    overrides: Mapping[str, Any],
+    part: str,
+    max_seeds: int | None = None,
+) -> Variant:
+    """The arm of ``team`` on scenario ``name``, labelled ``<name>-<team>`` and tagged with the
+    scenario, the team and ``part``."""
+    return Variant(
+        f"{name}-{team}",
+        policy,
+        dict(overrides),
+        tags={"scenario": name, "team": team, "part": part},
+        max_seeds=max_seeds,
     )
 
 
@@ -438,7 +466,8 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             kind="adversarial",
             description=(
                 "targets that evade or lure (docs/model.md §1): vanilla, the paper's "
-                "failure-aware team and the team extended for them (the adaptive estimator), on "
+                "failure-aware team and the team extended for them (the adaptive estimator; "
+                "where targets lure, with the lure guard as a fourth arm), on "
                 + ", ".join(f"`{n}`" for n in ADVERSARIAL)
                 + f", and on {QUICK_SUITE if quick else ADVERSARIAL_SUITE_SIZE} scenarios of the "
                 f"stored adversarial suite{' with small teams' if quick else ''} "

@@ -173,7 +173,7 @@ def generalization_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     return out
 
 
-#: With lures, the extended team's permanent losses per run at most this share of the paper
+#: With lures, the guarded team's permanent losses per run at most this share of the paper
 #: team's, at a time-mean trace at most this factor of its (docs/model.md §8).
 LURE_LOSS_SHARE = 0.5
 LURE_TRACE_FACTOR = 1.2
@@ -222,27 +222,30 @@ def _extended_lower(exp: Experiment, name: str, rows: pd.DataFrame) -> list[Clai
 def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     """Targets of the ``adversarial`` experiment, per shipped scenario (``tag_part``
     ``shipped``): the extended team has a lower mean trace and MSE than the paper's team and
-    than vanilla; with lures, its permanent losses per run are at most :data:`LURE_LOSS_SHARE`
-    of the paper team's at a trace at most :data:`LURE_TRACE_FACTOR` times its. On the stored
+    than vanilla; with lures, the guarded team's (the extended team with the lure guard)
+    permanent losses per run are at most :data:`LURE_LOSS_SHARE` of the paper team's at a trace
+    at most :data:`LURE_TRACE_FACTOR` times its. On the stored
     adversarial suite (``suite``) it has the lower mean trace in at least
     :data:`ADVERSARIAL_SUITE_TARGET` of the scenarios."""
     part = s["tag_part"] if "tag_part" in s else pd.Series("shipped", index=s.index)
     out = []
     for name, rows in s[part == "shipped"].groupby("tag_scenario", sort=False):
         out += _extended_lower(exp, str(name), rows)
-        if str(name).startswith("lure"):
+        if (rows.tag_team == "guarded").any():  # targets that lure: the guard's losses
             losses = rows.losses_known_permanent + rows.losses_unknown_permanent
-            ext = float(losses[rows.tag_team == "extended"].mean())
+            guarded = float(losses[rows.tag_team == "guarded"].mean())
             paper = float(losses[rows.tag_team == "paper"].mean())
-            trace_ext = _mean(rows, "trace", tag_team="extended")
+            trace_guarded = _mean(rows, "trace", tag_team="guarded")
             trace_paper = _mean(rows, "trace", tag_team="paper")
             out.append(
                 Claim(
                     exp.name,
-                    f"{name}: permanent losses per run at most {LURE_LOSS_SHARE:.0%} of the "
-                    f"paper team's, at a trace at most {LURE_TRACE_FACTOR}× its",
-                    ext <= LURE_LOSS_SHARE * paper and trace_ext <= LURE_TRACE_FACTOR * trace_paper,
-                    f"losses {ext:.2f} vs {paper:.2f} per run; trace {trace_ext:.4g} vs "
+                    f"{name}: with the lure guard, permanent losses per run at most "
+                    f"{LURE_LOSS_SHARE:.0%} of the paper team's, at a trace at most "
+                    f"{LURE_TRACE_FACTOR}× its",
+                    guarded <= LURE_LOSS_SHARE * paper
+                    and trace_guarded <= LURE_TRACE_FACTOR * trace_paper,
+                    f"losses {guarded:.2f} vs {paper:.2f} per run; trace {trace_guarded:.4g} vs "
                     f"{trace_paper:.4g}",
                 )
             )

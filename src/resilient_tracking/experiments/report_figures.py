@@ -123,13 +123,14 @@ def figure_jobs(
                 (("metrics", metrics), ("title", exp.name)),
             )
         )
-    elif exp.kind in ("adversarial", "beyond"):  # per scenario, its three teams
+    elif exp.kind in ("adversarial", "beyond"):  # per scenario, its teams
         for name in dict.fromkeys(_scenario_of(label) for label in runs):
             groups = {k: v for k, v in runs.items() if _scenario_of(k) == name}
             jobs.append(
                 FigureJob(
-                    f"{name}: vanilla, the paper's team and the extended team, "
-                    "mean ± 1 std over seeds",
+                    f"{name}: vanilla, the paper's team and the extended team"
+                    + (" (and with the lure guard)" if f"{name}-guarded" in groups else "")
+                    + ", mean ± 1 std over seeds",
                     out / f"bands-{name}.png",
                     plot_bands,
                     (groups,),

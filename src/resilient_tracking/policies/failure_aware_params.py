@@ -9,6 +9,7 @@ from pydantic import Field
 
 from resilient_tracking.spec import (
     MAX_ACCEL,
+    MAX_DURATION,
     MAX_POSITION_STD,
     MAX_RATIO,
     MAX_SPEED,
@@ -95,7 +96,7 @@ class LureGuardParams(Strict):
     from it (the ``lure_guard`` of the failure-aware policy, docs/model.md §6.1)."""
 
     window: int = Field(
-        20,
+        40,
         ge=1,
         le=MAX_STEP_COUNT,
         description=(
@@ -137,6 +138,51 @@ class LureGuardParams(Strict):
         description="Consecutive lingering steps after which a target is suspect.",
         json_schema_extra={"unit": "steps"},
     )
+    surge: float = Field(
+        0.07,
+        gt=0,
+        le=MAX_SPEED,
+        description=(
+            "A steady target whose speed over the window exceeds its usual speed by more than"
+            " this for surge_steps ticks is suspect until it is back at its usual speed (within"
+            " half of this for calm_steps ticks): a lure leaving its route."
+        ),
+        json_schema_extra={"unit": "m/s"},
+    )
+    surge_steps: int = Field(
+        10,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Consecutive ticks above the usual speed before a target surges.",
+        json_schema_extra={"unit": "steps"},
+    )
+    calm_steps: int = Field(
+        30,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Consecutive ticks back at its usual speed before a target's surge ends.",
+        json_schema_extra={"unit": "steps"},
+    )
+    usual_memory: float = Field(
+        3.0,
+        gt=0,
+        le=MAX_DURATION,
+        description=(
+            "Time constant of the running means of a target's usual speed, usual velocity and"
+            " unsteadiness; also how long a target is watched before it can surge."
+        ),
+        json_schema_extra={"unit": "s"},
+    )
+    steady: float = Field(
+        0.1,
+        gt=0,
+        le=MAX_SPEED,
+        description=(
+            "Largest unsteadiness (running mean of how far its velocity lies from its usual"
+            " velocity) of a target that can surge: one fleeing robots is not steady."
+        ),
+        json_schema_extra={"unit": "m/s"},
+    )
     zone_margin: Length = Field(
         0.3,
         description=(
@@ -146,7 +192,7 @@ class LureGuardParams(Strict):
         json_schema_extra={"unit": "m"},
     )
     standoff: PositiveLength = Field(
-        1.2,
+        1.5,
         description=(
             "Radius of the keep-out disc around a suspect target's predicted position (an eq. 7c"
             " row at risk level ε1 with the target's position covariance)."

@@ -2,6 +2,9 @@
 
 From the league's target estimate only (never the world), a target becomes suspect when
 
+* it **surges**: after keeping a steady course it speeds up well beyond its usual speed (a lure
+  leaving its route; :mod:`~resilient_tracking.policies.surge_watch`). This suspicion lasts
+  until it is back at its usual speed;
 * it **lingers**: its speed over the last ``window`` ticks (how far the mean of its estimated
   positions in the window's second half lies from that of its first half, over the time between
   them: the velocity estimate alone is too noisy) stays
@@ -12,8 +15,9 @@ From the league's target estimate only (never the world), a target becomes suspe
   radius ``r_safe`` of a row of the league's sensing table (eq. 7c: a sensing zone, or a comm
   zone's hazard).
 
-Suspicion lasts the episode. Each robot keeps its own record; a league shares its members'
-(a union, like zone knowledge), so a robot that leaves a league keeps what it learned there.
+Suspicion for lingering or standing at a zone lasts the episode. Each robot keeps its own
+record; a league shares its members' (a union, like zone knowledge), so a robot that leaves a
+league keeps what it learned there.
 Against each suspect target the league plans with one more eq. 7c row, a keep-out disc of
 radius ``standoff`` centred at the target's predicted position with its position covariance,
 which the route program's keep-out discs then include as well.
@@ -27,6 +31,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.events import Event
 from resilient_tracking.planning.layout import SensingRow, sensing_row, sensing_table
 from resilient_tracking.policies.failure_aware_params import LureGuardParams
+from resilient_tracking.policies.surge_watch import SurgeWatch
 
 
 class SuspectWatch:
@@ -44,6 +49,8 @@ class SuspectWatch:
         self.moved = np.zeros((n_robots, 0), dtype=bool)
         self.lingering = np.zeros((n_robots, 0), dtype=int)
         self.suspect = np.zeros((n_robots, 0), dtype=bool)
+        #: the surge cue's own record
+        self.surges = SurgeWatch(n_robots, params, dt)
 
     def observe(
         self, step: int, robots: list[int], estimate: TargetEstimate, zone_rows: np.ndarray
@@ -64,9 +71,11 @@ class SuspectWatch:
         with np.errstate(invalid="ignore"):
             half = (p.window + 1) // 2
             shift = history[-half:].mean(axis=0) - history[:half].mean(axis=0)
-            speed = np.linalg.norm(shift, axis=1) / ((p.window + 1 - half) * self.dt)
+            velocity = shift / ((p.window + 1 - half) * self.dt)
+            speed = np.linalg.norm(velocity, axis=1)
         spread = np.sqrt(np.linalg.eigvalsh(estimate.cov[:, :2, :2])[:, -1].clip(min=0.0))
         measured = np.isfinite(speed) & (spread <= p.position_std)
+        by_surge = self.surges.observe(robots, velocity, measured)
         moved |= measured & (speed > p.moving_speed)
         slow = moved & measured & (speed < p.linger_speed)
         lingering = np.where(slow, lingering + 1, 0)
@@ -74,8 +83,8 @@ class SuspectWatch:
         by_zone = self._at_zone(estimate.mean[:, :2], zone_rows)
 
         events = []
-        for j in np.flatnonzero((by_linger | by_zone) & ~known):
-            cause = "linger" if by_linger[j] else "zone"
+        for j in np.flatnonzero((by_linger | by_zone | by_surge) & ~known):
+            cause = "linger" if by_linger[j] else "zone" if by_zone[j] else "surge"
             x, y = estimate.mean[j, :2]
             for i in robots:
                 events.append(Event.target_suspected(step, i, int(j), cause, float(x), float(y)))
@@ -90,7 +99,8 @@ class SuspectWatch:
         league suspects, at its predicted position, with chance margin ``beta``."""
         if not self.suspect.shape[1]:
             return sensing_table()
-        targets = np.flatnonzero(self.suspect[robots].any(axis=0))
+        suspect = self.suspect[robots].any(axis=0) | self.surges.surging[robots].any(axis=0)
+        targets = np.flatnonzero(suspect)
         return sensing_table(
             [
                 sensing_row(
@@ -118,3 +128,4 @@ class SuspectWatch:
         self.moved = np.zeros((m, n), dtype=bool)
         self.lingering = np.zeros((m, n), dtype=int)
         self.suspect = np.zeros((m, n), dtype=bool)
+        self.surges = SurgeWatch(m, self.params, self.dt)

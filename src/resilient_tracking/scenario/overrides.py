@@ -16,6 +16,7 @@ from resilient_tracking.scenario.paths import set_path, set_paths
 
 __all__ = [
     "ADVERSARIAL_TEAM",
+    "GUARDED_TEAM",
     "BEYOND_TEAM",
     "every_zone_known",
     "PAPER_METHOD",
@@ -40,6 +41,11 @@ PAPER_METHOD: dict[str, Any] = {
 ADVERSARIAL_TEAM: dict[str, Any] = {
     "estimator.type": "adaptive",
 }
+
+#: The extended team with the lure guard on as well (docs/model.md §6.1): the defence for
+#: scenarios where targets are expected to lure. Not part of the extended team, as it costs
+#: trace wherever nothing lures (docs/adversarial.md).
+GUARDED_TEAM: dict[str, Any] = ADVERSARIAL_TEAM | {"policy.failure_aware.lure_guard": True}
 
 #: The failure-aware team extended for the world's features beyond the paper (docs/beyond.md),
 #: by dotted path: every option of the failure-aware policy for them, in one place. Without

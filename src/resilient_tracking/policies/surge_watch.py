@@ -1,0 +1,92 @@
+"""Surging targets: a cue of the lure guard (docs/model.md §6.1).
+
+A lure leaves its route for the danger at a speed of its own and comes back to it later. Seen
+from the league's estimate, a target that had kept a steady course speeds up well beyond its
+usual speed; a target that turns a corner keeps its speed, and one that flees robots was not on
+a steady course before. So, per target, from the velocity over the lure guard's window:
+
+* its **usual** speed and velocity are running means with time constant ``usual_memory``, and
+  its **unsteadiness** the running mean of how far each velocity lies from the usual one;
+* it **surges** once its speed has stayed more than ``surge`` above the usual speed for
+  ``surge_steps`` ticks, if it was steady (unsteadiness at most ``steady``) and has been
+  watched for ``usual_memory`` at least; its usual speed and velocity stay as they were;
+* the surge **ends** once its speed has stayed within ``surge / 2`` of the usual speed for
+  ``calm_steps`` ticks: a lure back on its route. Stopping at the danger, or heading back at
+  its own speed, keeps it surging.
+
+Only ticks with a trusted velocity (a confident position estimate) count. Like the other cues,
+each robot keeps its own record and a league shares its first member's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from resilient_tracking.policies.failure_aware_params import LureGuardParams
+
+
+class SurgeWatch:
+    """Per robot and target: usual speed and velocity, unsteadiness, ticks watched, the count
+    towards a surge or its end, surging (module docstring)."""
+
+    def __init__(self, n_robots: int, params: LureGuardParams, dt: float):
+        self.params = params
+        self.n_robots = n_robots
+        self.dt = dt
+        self._resize(0)
+
+    def observe(self, robots: list[int], velocity: np.ndarray, trusted: np.ndarray) -> np.ndarray:
+        """Update ``robots``' (one league's) record with each target's ``velocity`` ``(N, 2)``
+        over the window, where ``trusted``; returns which targets started a surge now."""
+        if self.surging.shape[1] != len(velocity):
+            self._resize(len(velocity))
+        p, first = self.params, robots[0]
+        usual, usual_velocity = self.usual[first].copy(), self.usual_velocity[first].copy()
+        unsteady, watched = self.unsteady[first].copy(), self.watched[first].copy()
+        count, surging = self.count[first].copy(), self.surging[first].copy()
+        rate = self.dt / p.usual_memory  # of the running means
+
+        velocity = np.where(trusted[:, None], velocity, 0.0)  # (NaN before the window fills)
+        speed = np.linalg.norm(velocity, axis=1)
+        new = trusted & np.isnan(usual)
+        usual[new], usual_velocity[new], unsteady[new] = speed[new], velocity[new], 0.0
+        seen = trusted & ~new
+        watched[trusted] += 1
+
+        # a steady target watched long enough, faster than usual: a tick towards a surge
+        rising = (
+            seen
+            & ~surging
+            & (watched * self.dt >= p.usual_memory)
+            & (unsteady <= p.steady)
+            & (speed > usual + p.surge)
+        )
+        usual_tick = seen & ~surging & ~rising  # (the running means follow it)
+        drift = np.linalg.norm(velocity - usual_velocity, axis=1)
+        unsteady = np.where(usual_tick, unsteady + rate * (drift - unsteady), unsteady)
+        usual = np.where(usual_tick, usual + rate * (speed - usual), usual)
+        usual_velocity = np.where(
+            usual_tick[:, None], usual_velocity + rate * (velocity - usual_velocity), usual_velocity
+        )
+        # a surging target back at its usual speed: a tick towards the surge's end
+        calm = seen & surging & (np.abs(speed - usual) < p.surge / 2)
+        count = np.where(rising | calm, count + 1, np.where(seen, 0, count))
+        started = rising & (count >= p.surge_steps)
+        ended = calm & (count >= p.calm_steps)
+        surging = (surging | started) & ~ended
+        count = np.where(started | ended, 0, count)
+
+        self.usual[robots], self.usual_velocity[robots] = usual, usual_velocity
+        self.unsteady[robots], self.watched[robots] = unsteady, watched
+        self.count[robots], self.surging[robots] = count, surging
+        return started
+
+    def _resize(self, n: int) -> None:
+        m = self.n_robots
+        #: ``(M, N)`` per robot and target (``usual_velocity`` ``(M, N, 2)``)
+        self.usual = np.full((m, n), np.nan)
+        self.usual_velocity = np.zeros((m, n, 2))
+        self.unsteady = np.zeros((m, n))
+        self.watched = np.zeros((m, n), dtype=int)
+        self.count = np.zeros((m, n), dtype=int)
+        self.surging = np.zeros((m, n), dtype=bool)
