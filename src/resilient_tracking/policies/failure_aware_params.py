@@ -520,9 +520,10 @@ class FailureAwareParams(Strict):
     lure_guard: bool = Field(
         False,
         description=(
-            "Beyond the paper: suspect targets that linger after moving, or stand at a known"
-            " zone's keep-out disc, of luring robots into danger (from the league's estimate"
-            " only); suspicion lasts the episode, and the league keeps lure.standoff from each"
+            "Beyond the paper: suspect targets of luring robots into danger (from the league's"
+            " estimate only): while a target that kept a steady course speeds up beyond its"
+            " usual speed, and for the rest of the episode once one lingers after moving or"
+            " stands at a known zone's keep-out disc; the league keeps lure.standoff from each"
             " suspect target. false, the default: the paper's team (docs/model.md §6.1)."
         ),
     )

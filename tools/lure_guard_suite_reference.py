@@ -1,0 +1,67 @@
+"""Reference measurement: what the lure guard costs where targets are not all lures
+(docs/adversarial.md, *The lure guard*).
+
+Runs the paper's team, the extended team (``ADVERSARIAL_TEAM``) and the extended team with the
+lure guard (``GUARDED_TEAM``) on the stored adversarial suite, whose targets evade, lure or keep
+to their lanes, and prints each team's mean trace and MSE and the share of scenarios in which
+it has the lower trace, and the lower MSE, than the paper's team: the numbers that decide
+whether the guard belongs in the extended team (the suite's target is 85 %).
+
+    python tools/lure_guard_suite_reference.py            # the 30 scenarios, seed 1 each
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from resilient_tracking.experiments.catalog import ADVERSARIAL_SUITE_SIZE
+from resilient_tracking.experiments.generator import stored_adversarial_suite
+from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, GUARDED_TEAM, overridden
+from resilient_tracking.sim.episode import run_episode
+
+TEAMS: dict[str, dict[str, Any]] = {
+    "paper": {},
+    "extended": ADVERSARIAL_TEAM,
+    "extended with the lure guard": GUARDED_TEAM,
+}
+
+
+def run(index: int, team: str, seed: int) -> tuple[float, float]:
+    """The mean trace and MSE of one episode of suite scenario ``index``."""
+    scenario = overridden(stored_adversarial_suite()[index], TEAMS[team])
+    tables = run_episode(scenario, "failure_aware", seed)
+    return float(tables["team"].trace.mean()), float(tables["team"].mse.mean())
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scenarios", type=int, default=ADVERSARIAL_SUITE_SIZE)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args(argv)
+    results = {
+        team: np.array(
+            Parallel(n_jobs=args.jobs)(
+                delayed(run)(i, team, args.seed) for i in range(args.scenarios)
+            )
+        )
+        for team in TEAMS
+    }
+    paper = results["paper"]
+    n = args.scenarios
+    print("| team | mean trace | mean MSE | lower trace than the paper's team | lower MSE |")
+    print("|---|---|---|---|---|")
+    for team, r in results.items():
+        wins = "–" if team == "paper" else f"{(r[:, 0] < paper[:, 0]).sum()}/{n}"
+        mse_wins = "–" if team == "paper" else f"{(r[:, 1] < paper[:, 1]).sum()}/{n}"
+        print(f"| {team} | {r[:, 0].mean():.4f} | {r[:, 1].mean():.4f} | {wins} | {mse_wins} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
