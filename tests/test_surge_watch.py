@@ -59,14 +59,19 @@ def test_an_unsteady_target_is_no_surge():
     assert not started
 
 
-def test_a_target_must_be_watched_for_the_usual_memory_before_it_can_surge():
-    watched = round(PARAMS.usual_memory / DT)
-    early = [heading(0.0, 0.18)] * (watched // 3) + [heading(0.0, 0.3)] * 100
-    _, started, _ = feed(early)
-    assert not started  # the faster speed became its usual one
+def test_a_target_surges_only_once_watched_for_the_usual_memory_but_may_set_off_before():
+    watched = round(PARAMS.usual_memory / DT)  # ticks, the first one included
     late = [heading(0.0, 0.18)] * watched + [heading(0.0, 0.3)] * 100
     _, started, _ = feed(late)
     assert started == [watched + PARAMS.surge_steps - 1]
+    # setting off while still watched: the trip's speed does not become the usual one
+    early = [heading(0.0, 0.18)] * (watched // 3) + [heading(0.0, 0.3)] * 100
+    watch, started, _ = feed(early)
+    assert started == [watched - 1 + PARAMS.surge_steps - 1]
+    assert watch.usual[0, 0] == 0.18
+    # a target as fast from its first tick on: that is its usual speed
+    _, started, _ = feed([heading(0.0, 0.3)] * 100)
+    assert not started
 
 
 def test_untrusted_ticks_change_nothing():

@@ -6,10 +6,12 @@ usual speed; a target that turns a corner keeps its speed, and one that flees ro
 a steady course before. So, per target, from the velocity over the lure guard's window:
 
 * its **usual** speed and velocity are running means with time constant ``usual_memory``, and
-  its **unsteadiness** the running mean of how far each velocity lies from the usual one;
+  its **unsteadiness** the running mean of how far each velocity lies from the usual one. A
+  tick more than ``surge`` faster than usual is left out of all three, so a lure that sets off
+  while it is still being watched does not make its trip speed its usual one;
 * it **surges** once its speed has stayed more than ``surge`` above the usual speed for
   ``surge_steps`` ticks, if it was steady (unsteadiness at most ``steady``) and has been
-  watched for ``usual_memory`` at least; its usual speed and velocity stay as they were;
+  watched for ``usual_memory`` at least;
 * the surge **ends** once its speed has stayed within ``surge / 2`` of the usual speed for
   ``calm_steps`` ticks: a lure back on its route. Stopping at the danger, or heading back at
   its own speed, keeps it surging.
@@ -53,15 +55,11 @@ class SurgeWatch:
         seen = trusted & ~new
         watched[trusted] += 1
 
-        # a steady target watched long enough, faster than usual: a tick towards a surge
-        rising = (
-            seen
-            & ~surging
-            & (watched * self.dt >= p.usual_memory)
-            & (unsteady <= p.steady)
-            & (speed > usual + p.surge)
-        )
-        usual_tick = seen & ~surging & ~rising  # (the running means follow it)
+        # faster than usual: left out of the running means; a tick towards a surge for a steady
+        # target watched long enough
+        fast = seen & ~surging & (speed > usual + p.surge)
+        rising = fast & (watched * self.dt >= p.usual_memory) & (unsteady <= p.steady)
+        usual_tick = seen & ~surging & ~fast  # (the running means follow it)
         drift = np.linalg.norm(velocity - usual_velocity, axis=1)
         unsteady = np.where(usual_tick, unsteady + rate * (drift - unsteady), unsteady)
         usual = np.where(usual_tick, usual + rate * (speed - usual), usual)
