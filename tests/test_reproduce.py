@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 from dataclasses import replace
@@ -11,6 +12,7 @@ import pandas as pd
 import pytest
 
 from resilient_tracking.cli import main
+from resilient_tracking.experiments import catalog as catalog_module
 from resilient_tracking.experiments.catalog import (
     ADVERSARIAL,
     ADVERSARIAL_SUITE_SEEDS,
@@ -27,6 +29,7 @@ from resilient_tracking.experiments.claims import check
 from resilient_tracking.experiments.generator import SUITE_SEED, stored_adversarial_suite, suite
 from resilient_tracking.experiments.report import write_report
 from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
+from resilient_tracking.runs.manifest import code_digest, source_digest
 from resilient_tracking.runs.schema import REPRODUCIBLE
 
 TINY = Experiment(
@@ -116,6 +119,29 @@ def test_a_changed_scenario_makes_the_stored_run_stale(tmp_path):
     assert not is_done(tmp_path, longer[0])
     assert len(run_sweep(longer, tmp_path)) == 1
     assert len(tables_of(tmp_path, longer[0])["team"]) == 14
+
+
+def test_a_run_stored_by_other_code_is_stale(tmp_path, monkeypatch):
+    todo = tiny_tasks()[:1]
+    run_sweep(todo, tmp_path)
+    assert is_done(tmp_path, todo[0])
+    manifest = json.loads((run_dir(tmp_path, todo[0]) / "manifest.json").read_text())
+    assert manifest["code"] == code_digest()
+    monkeypatch.setattr(catalog_module, "code_digest", lambda: "another-code")
+    assert not is_done(tmp_path, todo[0])
+
+
+def test_the_code_digest_follows_the_python_sources_only(tmp_path):
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "a.py").write_text("x = 1\n")
+    first = source_digest(tmp_path)
+    (tmp_path / "notes.txt").write_text("not code")
+    assert source_digest(tmp_path) == first
+    (tmp_path / "pkg" / "a.py").write_text("x = 2\n")
+    assert source_digest(tmp_path) != first
+    (tmp_path / "pkg" / "a.py").write_text("x = 1\n")
+    (tmp_path / "pkg" / "a.py").rename(tmp_path / "pkg" / "b.py")  # same content, other file
+    assert source_digest(tmp_path) != first
 
 
 @pytest.mark.slow

@@ -29,6 +29,7 @@ from resilient_tracking.experiments.generator import (
     stored_suite,
 )
 from resilient_tracking.runs.folders import folder_name
+from resilient_tracking.runs.manifest import code_digest
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import (
     ADVERSARIAL_TEAM,
@@ -125,14 +126,16 @@ class Task:
 
     @property
     def fingerprint(self) -> str:
-        """Hash of everything that determines the run's tables; a stored run with another
-        fingerprint is stale and is run again. The free-text ``description`` is left out:
-        rewording it changes no result."""
+        """Hash of everything that determines the run's tables: the scenario, the policy, the
+        seed and the package's code (:func:`~resilient_tracking.runs.manifest.code_digest`); a
+        stored run with another fingerprint is stale and is run again. The free-text
+        ``description`` is left out: rewording it changes no result."""
         text = json.dumps(
             [
                 self.scenario.model_dump(mode="json", exclude={"description"}),
                 self.variant.policy,
                 self.seed,
+                code_digest(),
             ],
             sort_keys=True,
         )

@@ -3,7 +3,8 @@
 A run lives in ``OUT/runs/<experiment>/<variant>/seed-NNN/``. It is written into a hidden
 staging folder beside its final place and renamed when complete (``runs.records.write_run``),
 so a run folder is either whole or absent, whatever kills the process. A run is skipped when
-its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed) and
+its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed and the
+package's code: a run stored by other code is run again) and
 the record that it ran to completion without an interrupt (``"interrupted": false``); a stale
 one, or one without that record, is run again.
 

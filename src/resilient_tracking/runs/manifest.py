@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import platform
+from pathlib import Path
 from typing import Any
 
 import casadi
@@ -22,6 +25,7 @@ def episode_manifest(
         "seed": seed,
         "policy": policy_name,
         "version": __version__,
+        "code": code_digest(),
         "casadi": casadi.CasadiMeta.version(),
         "numpy": np.__version__,
         "kernels": numeric_kernels(),
@@ -29,3 +33,21 @@ def episode_manifest(
         "steps": steps,
         "wall_time_s": round(wall, 3),
     }
+
+
+def source_digest(root: Path) -> str:
+    """SHA-256 (its first 16 hex digits) of the Python sources under ``root``, by relative path
+    and content."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+@functools.cache
+def code_digest() -> str:
+    """:func:`source_digest` of this package, once per process: a stored run made by other code
+    is another run, even with the same scenario, policy and seed (its package version may not
+    have changed)."""
+    return source_digest(Path(__file__).resolve().parents[1])
