@@ -44,6 +44,29 @@ def test_a_steady_target_that_speeds_up_surges_until_it_is_back_at_its_usual_spe
     assert (watch.surging[0] == watch.surging[1]).all()  # shared within the league
 
 
+def test_a_slow_speed_up_over_the_window_is_still_a_surge():
+    # the speed over the window climbs from the lane's to the trip's over 8 s: slower than
+    # the usual speed's running mean lags behind by a whole surge
+    ramp = [heading(0.0, 0.18 + 0.15 * k / 80) for k in range(80)]
+    velocities = [heading(0.0, 0.18)] * 40 + ramp + [heading(0.0, 0.33)] * 60
+    watch, started, _ = feed(velocities)
+    assert len(started) == 1 and 40 < started[0] < 120 + PARAMS.surge_steps
+    assert watch.usual[0, 0] < 0.18 + PARAMS.surge / 2
+
+
+def test_a_league_keeps_the_surge_a_member_saw_and_the_longest_record():
+    watch = SurgeWatch(2, PARAMS, DT)
+    one = np.array([True])
+    for _ in range(40):  # robot 1 alone watches the target on its lane, then speeding up
+        watch.observe([1], heading(0.0, 0.18)[None], one)
+    for _ in range(PARAMS.surge_steps):
+        watch.observe([1], heading(0.0, 0.3)[None], one)
+    assert watch.surging[1, 0] and not watch.surging[0, 0]
+    watch.observe([0, 1], heading(0.0, 0.3)[None], one)  # robot 0, which saw nothing, joins
+    assert watch.surging[:, 0].all()
+    assert (watch.usual[:, 0] == 0.18).all() and (watch.watched[:, 0] == 40 + 10 + 1).all()
+
+
 def test_turning_a_corner_at_the_same_speed_is_no_surge():
     velocities = [heading(0.0, 0.18)] * 60 + [heading(60.0, 0.18)] * 100
     _, started, _ = feed(velocities)

@@ -1,5 +1,5 @@
 """Reference measurement: what the lure guard would save if the team knew which targets lure
-(docs/adversarial.md, *What does not work yet*).
+(docs/adversarial.md, *The lure guard*).
 
 The extended team (the adaptive estimator) with the lure guard, whose suspicion is replaced by
 the truth: every lure target is suspect from the first tick (``always``); exactly while it is
@@ -48,7 +48,12 @@ def _truth(world: World, oracle: str) -> np.ndarray:
     """Which targets the oracle suspects now (truth: this is what makes it a reference)."""
     if oracle == "always":
         return np.array([t.spec.motion.type == "lure" for t in world.targets])
-    return np.array([getattr(t.motion, "mode", "") in MODES[oracle] for t in world.targets])
+    return np.array(
+        [
+            t.spec.motion.type == "lure" and getattr(t.motion, "mode", "") in MODES[oracle]
+            for t in world.targets
+        ]
+    )
 
 
 def _oracle(watch: SuspectWatch, world: World, oracle: str, latency: int) -> Any:

@@ -175,8 +175,8 @@ class Event:
         cls, step: int, robot: int, target: int, cause: str, x: float, y: float
     ) -> Event:
         """``robot``'s league suspects target ``target`` (estimated at ``(x, y)``) of luring it
-        into danger; ``cause``: ``linger`` (it stopped after moving) or ``zone`` (it stands at
-        a known zone's keep-out disc)."""
+        into danger; ``cause``: ``surge`` (it sped up off a steady course), ``linger`` (it
+        stopped after moving) or ``zone`` (it stands at a known zone's keep-out disc)."""
         detail = f"target {target} ({cause}) at ({x:.3f}, {y:.3f})"
         return cls(step, robot, "target_suspected", detail, cause=cause)
 

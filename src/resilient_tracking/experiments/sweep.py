@@ -34,6 +34,7 @@ from pathlib import Path
 from resilient_tracking import interrupts
 from resilient_tracking.experiments.catalog import Task
 from resilient_tracking.runs import folders
+from resilient_tracking.runs.manifest import code_digest
 from resilient_tracking.runs.records import EpisodeResult, write_run
 from resilient_tracking.sim.episode import run_episode
 
@@ -108,7 +109,6 @@ def run_task(task: Task) -> tuple[str, EpisodeResult | RunFailure]:
         experiment=task.experiment,
         variant=task.variant.label,
         tags=dict(task.variant.tags),
-        fingerprint=task.fingerprint,
         interrupted=False,
     )
     return task.run_id, result
@@ -118,11 +118,17 @@ def store(out: Path, task: Task, result: EpisodeResult) -> Path:
     """Write a finished run; ``write_run`` stages it and renames it into place, replacing a
     stale run of the same id (beside any file someone else put in its folder, kept).
 
+    The fingerprint stored is this process's (:attr:`Task.fingerprint`), which a later sweep in
+    it compares with; a worker that ran other code than this process is warned of.
+
     Raises the interrupt instead if Ctrl-C or SIGTERM came (the run may have met it), and
     ``ValueError`` for a result without the record that it finished uninterrupted."""
     interrupts.check()
     if result.manifest.get("interrupted") is not False:
         raise ValueError(f"{task.run_id}: not recorded as finished uninterrupted; not stored")
+    if result.manifest.get("code", code_digest()) != code_digest():
+        log.warning("%s: the worker ran other code than this process", task.run_id)
+    result.manifest["fingerprint"] = task.fingerprint
     return write_run(result, run_dir(out, task), overwrite=True)
 
 

@@ -7,8 +7,9 @@ a steady course before. So, per target, from the velocity over the lure guard's 
 
 * its **usual** speed and velocity are running means with time constant ``usual_memory``, and
   its **unsteadiness** the running mean of how far each velocity lies from the usual one. A
-  tick more than ``surge`` faster than usual is left out of all three, so a lure that sets off
-  while it is still being watched does not make its trip speed its usual one;
+  tick more than ``surge / 2`` faster than usual is left out of all three, so neither a lure
+  that sets off while it is still being watched nor one whose speed over the window rises
+  slowly makes its trip speed its usual one;
 * it **surges** once its speed has stayed more than ``surge`` above the usual speed for
   ``surge_steps`` ticks, if it was steady (unsteadiness at most ``steady``) and has been
   watched for ``usual_memory`` at least;
@@ -16,8 +17,10 @@ a steady course before. So, per target, from the velocity over the lure guard's 
   ``calm_steps`` ticks: a lure back on its route. Stopping at the danger, or heading back at
   its own speed, keeps it surging.
 
-Only ticks with a trusted velocity (a confident position estimate) count. Like the other cues,
-each robot keeps its own record and a league shares its first member's.
+Only ticks with a trusted velocity (a confident position estimate) count. Each robot keeps its
+own record; a league takes, per target, that of the member that watched it longest, and a
+surge any member saw. A target that speeds up for good, or stops for good at the end of its
+route, stays suspect.
 """
 
 from __future__ import annotations
@@ -42,10 +45,15 @@ class SurgeWatch:
         over the window, where ``trusted``; returns which targets started a surge now."""
         if self.surging.shape[1] != len(velocity):
             self._resize(len(velocity))
-        p, first = self.params, robots[0]
-        usual, usual_velocity = self.usual[first].copy(), self.usual_velocity[first].copy()
-        unsteady, watched = self.unsteady[first].copy(), self.watched[first].copy()
-        count, surging = self.count[first].copy(), self.surging[first].copy()
+        p, members = self.params, np.asarray(robots)
+        # per target, the record of the member that watched it longest; surging if any member
+        # saw it surge (a league merging keeps a surge)
+        cols = np.arange(len(velocity))
+        keeper = members[np.argmax(self.watched[members], axis=0)]
+        usual, usual_velocity = self.usual[keeper, cols], self.usual_velocity[keeper, cols]
+        unsteady, watched = self.unsteady[keeper, cols], self.watched[keeper, cols]
+        count, surging = self.count[keeper, cols], self.surging[members].any(axis=0)
+        count = np.where(surging == self.surging[keeper, cols], count, 0)
         rate = self.dt / p.usual_memory  # of the running means
 
         velocity = np.where(trusted[:, None], velocity, 0.0)  # (NaN before the window fills)
@@ -55,11 +63,16 @@ class SurgeWatch:
         seen = trusted & ~new
         watched[trusted] += 1
 
-        # faster than usual: left out of the running means; a tick towards a surge for a steady
-        # target watched long enough
-        fast = seen & ~surging & (speed > usual + p.surge)
-        rising = fast & (watched * self.dt >= p.usual_memory) & (unsteady <= p.steady)
-        usual_tick = seen & ~surging & ~fast  # (the running means follow it)
+        # half a surge faster than usual: left out of the running means (so a slow speed-up is
+        # not taken in); a surge faster: a tick towards a surge for a steady, watched target
+        faster = seen & ~surging & (speed > usual + p.surge / 2)
+        rising = (
+            faster
+            & (speed > usual + p.surge)
+            & (watched * self.dt >= p.usual_memory)
+            & (unsteady <= p.steady)
+        )
+        usual_tick = seen & ~surging & ~faster  # (the running means follow it)
         drift = np.linalg.norm(velocity - usual_velocity, axis=1)
         unsteady = np.where(usual_tick, unsteady + rate * (drift - unsteady), unsteady)
         usual = np.where(usual_tick, usual + rate * (speed - usual), usual)
