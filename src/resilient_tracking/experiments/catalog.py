@@ -275,10 +275,9 @@ def adversarial_cases(
     generated = _small(stored_adversarial_suite(), max_pairs)[:suite_size]
     cases = _with_three_teams(shipped, generated, ADVERSARIAL_TEAM, suite_seeds)
     # where a shipped scenario's targets lure, a fourth arm: the extended team with the lure guard
-    guarded = {s.name for s in shipped if _lures(s)}
     return [
         (s, arms + (_arm(s.name, "guarded", "failure_aware", GUARDED_TEAM, "shipped"),))
-        if s.name in guarded and arms[0].tags["part"] == "shipped"
+        if arms[0].tags["part"] == "shipped" and _lures(s)
         else (s, arms)
         for s, arms in cases
     ]
