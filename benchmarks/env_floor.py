@@ -221,18 +221,19 @@ def episode_costs(steps: int, rounds: int) -> dict[str, float]:
 
     def simulator() -> float:
         stepper = EpisodeStepper(scenario, "failure_aware", 0, record=False)
-        config = stepper.team.config
         modes = ["agent"] * len(scenario.robots)
         episode = 0
         start = time.process_time()
         obs = stepper.sense()
         for action in actions:
-            lower, upper = config.velocity_bounds(list(range(len(action))), obs.positions)
+            bounds = stepper.team.config.velocity_bounds
+            lower, upper = bounds(list(range(len(action))), obs.positions)
             stepper.act(Decision(np.minimum(np.maximum(action, lower), upper), modes))
-            if stepper.steps_done >= scenario.steps:
+            obs = stepper.sense()
+            if stepper.steps_done >= scenario.steps or not obs.sensing_ok.any():  # as it resets
                 episode += 1
                 stepper = EpisodeStepper(scenario, "failure_aware", episode, record=False)
-            obs = stepper.sense()
+                obs = stepper.sense()
         return (time.process_time() - start) / steps
 
     best = {"environment": float("inf"), "simulator alone": float("inf")}
