@@ -10,8 +10,8 @@ from scipy.stats import chi2
 
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.belief.numpy_direct import solve as _solve
 from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.models.numpy_direct import solve as _solve
 from resilient_tracking.models.sensor import RangeBearingSensor, wrap_angle
 
 # ---------------------------------------------------------------------------------------------

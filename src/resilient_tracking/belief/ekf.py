@@ -39,9 +39,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.belief.numpy_direct import einsum as _einsum
-from resilient_tracking.belief.numpy_direct import solve as _solve
 from resilient_tracking.models.motion import NearlyConstantVelocity
+from resilient_tracking.models.numpy_direct import einsum as _einsum
+from resilient_tracking.models.numpy_direct import solve as _solve
 from resilient_tracking.models.sensor import MeasurementModel, wrap_angle
 
 FloatArray = NDArray[np.float64]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from resilient_tracking.belief.numpy_direct import cholesky_exists
+from resilient_tracking.models.numpy_direct import cholesky_exists
 
 FloatArray = NDArray[np.float64]
 

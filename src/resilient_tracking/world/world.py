@@ -327,7 +327,7 @@ class World:
         draws = self._rng_attacks.random((len(self.zones), self.n_robots))
         for zone, row in zip(self.zones, draws, strict=True):
             hit = row < zone.hazard.probability(self.robot_positions, self.step_index, self.dt)
-            if hit.any():
+            if np.logical_or.reduce(hit, axis=None):  # (ndarray.any's reduction, sans wrapper)
                 for robot in np.flatnonzero(hit).tolist():
                     if zone.spec.effect.type == "degrade":
                         self._degrade(robot, zone)
