@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from resilient_tracking.models import numpy_direct
 from resilient_tracking.models.numpy_direct import cholesky_exists, einsum, solve
 
 # the signatures the filter and the hazards use, with operands of their shapes
@@ -61,3 +62,17 @@ def test_the_error_state_is_left_as_it_was_found() -> None:
         with pytest.raises(np.linalg.LinAlgError):
             solve(np.zeros((1, 2, 2)), np.ones((1, 2, 1)))
         assert np.geterr() == {k: "ignore" for k in before}
+
+
+def test_without_numpys_private_error_state_np_errstate_is_used(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(numpy_direct, "_extobj_contextvar", None)
+    with np.errstate(all="warn"):
+        before = np.geterr()
+        a = np.eye(2)[None] * 2.0
+        assert np.array_equal(solve(a, np.ones((1, 2, 1))), np.linalg.solve(a, np.ones((1, 2, 1))))
+        assert not cholesky_exists(-np.eye(2)[None])
+        with pytest.raises(np.linalg.LinAlgError):
+            solve(np.zeros((1, 2, 2)), np.ones((1, 2, 1)))
+        assert np.geterr() == before

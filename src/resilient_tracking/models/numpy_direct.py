@@ -25,7 +25,11 @@ try:  # what np.einsum calls when not asked to optimise
 except ImportError:  # NumPy 1.x
     from numpy.core.multiarray import c_einsum as einsum  # type: ignore[no-redef]
 
-try:  # the error state that np.errstate would set, made once (np.errstate makes it at each entry)
+# The error state np.errstate(invalid="raise", over="ignore", divide="ignore", under="ignore")
+# sets, made once at import (np.errstate makes it at each entry). Its error callback and buffer
+# size are those in force at import: no flag here calls the callback, and the buffer size
+# changes no number.
+try:
     from numpy._core._ufunc_config import (  # type: ignore[attr-defined]
         _extobj_contextvar,
         _make_extobj,
