@@ -36,11 +36,13 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import machine, save, table
-from benchmarks.env_steps import make_env, random_actions
+from benchmarks.env_steps import cpu_us_per_step, make_env, random_actions
 
 SCENARIO = "sensing-temp"
 #: the environment's target: 5,000 steps per second
 TARGET_US = 200.0
+#: untimed steps before the timed ones (as ``benchmarks.env_steps.one_process`` takes)
+WARM_UP = 20
 
 
 def filter_in_floats(
@@ -160,37 +162,48 @@ def products_beyond_float_sums(trials: int, seed: int = 0) -> float:
     return beyond / total
 
 
-def filter_inputs(steps: int = 40) -> dict[str, Any]:
-    """A 3×3 filter step of the benchmark's episode after ``steps`` steps: the estimate before
-    the prediction, the robots' positions and measurements of the next tick, the team's filter
-    and what the written-out one needs."""
+#: the steps of the benchmark's episode at which the two filters are compared (the second:
+#: the step timed)
+FILTER_STEPS = (10, 40, 80, 160)
+
+
+def filter_inputs(at: tuple[int, ...] = FILTER_STEPS) -> list[dict[str, Any]]:
+    """3×3 filter steps of the benchmark's episode, after each of ``at`` steps: the estimate
+    before the prediction, the robots' positions and measurements of the next tick, the team's
+    filter and what the written-out one needs."""
     from resilient_tracking.belief.ekf import ExtendedKalmanFilter
     from resilient_tracking.sim.episode import EpisodeStepper
 
     env = make_env(SCENARIO, record=False)
     stepper = EpisodeStepper(env.session.scenario, "failure_aware", 0, record=False)
     stepper.sense()
-    for _ in range(steps):
-        stepper.act()
-        estimate = stepper.team.belief.estimates[0]
-        obs = stepper.sense()
     ekf = stepper.team.belief.estimator
     if not isinstance(ekf, ExtendedKalmanFilter):
         raise TypeError(f"{SCENARIO}'s team has no EKF ({type(ekf).__name__})")
-    if not np.isfinite(obs.measurements).all() or len(stepper.team.belief.leagues) != 1:
-        raise RuntimeError(f"step {steps} is not one of a whole team measuring every target")
-    return {
-        "estimate": estimate,
-        "positions": obs.positions,
-        "measurements": obs.measurements,
-        "ekf": ekf,
-        "dt": float(ekf.model.dt),
-        "process_noise": ekf.model.process_noise,
-    }
+    found = []
+    for step in range(1, max(at) + 1):
+        stepper.act()
+        estimate = stepper.team.belief.estimates[0]
+        obs = stepper.sense()
+        if step not in at:
+            continue
+        if not np.isfinite(obs.measurements).all() or len(stepper.team.belief.leagues) != 1:
+            raise RuntimeError(f"step {step} is not one of a whole team measuring every target")
+        found.append(
+            {
+                "estimate": estimate,
+                "positions": obs.positions,
+                "measurements": obs.measurements,
+                "ekf": ekf,
+                "dt": float(ekf.model.dt),
+                "process_noise": ekf.model.process_noise,
+            }
+        )
+    return found
 
 
 def written_out(given: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`filter_in_floats` of :func:`filter_inputs`' step."""
+    """:func:`filter_in_floats` of a step of :func:`filter_inputs`."""
     estimate = given["estimate"]
     return filter_in_floats(
         estimate.mean,
@@ -203,14 +216,13 @@ def written_out(given: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     )
 
 
-def largest_difference(steps: tuple[int, ...] = (10, 40, 80, 160)) -> float:
+def largest_difference(cases: list[dict[str, Any]]) -> float:
     """The largest difference, relative to the largest entry of each, between the package's
-    filter and :func:`filter_in_floats` in mean and in covariance at these steps of the
-    episode; the benchmark stops if it is above 1e-12 (rounding apart, it is not the same
-    filter)."""
+    filter and :func:`filter_in_floats` in mean and in covariance at the steps ``cases`` of
+    :func:`filter_inputs`; the benchmark stops if it is above 1e-12 (rounding apart, it is not
+    the same filter)."""
     largest = 0.0
-    for step in steps:
-        given = filter_inputs(step)
+    for given in cases:
         ekf, estimate = given["ekf"], given["estimate"]
         ours = ekf.update(ekf.predict(estimate), given["positions"], given["measurements"])
         for package, floats in zip((ours.mean, ours.cov), written_out(given), strict=True):
@@ -233,8 +245,9 @@ def _best_us(run: Callable[[], Any], calls: int, rounds: int) -> float:
 
 
 def episode_costs(steps: int, rounds: int) -> dict[str, float]:
-    """CPU µs per step of the environment and of the simulator alone, with the same
-    velocities, in alternating rounds (the best of each)."""
+    """CPU µs per step of the environment (:func:`~benchmarks.env_steps.cpu_us_per_step`) and
+    of the simulator alone, with the same velocities, in alternating rounds (the best of
+    each)."""
     from resilient_tracking.policies.base import Decision
     from resilient_tracking.sim.episode import EpisodeStepper
 
@@ -242,22 +255,15 @@ def episode_costs(steps: int, rounds: int) -> dict[str, float]:
     actions = random_actions(env, steps)
     scenario = env.session.scenario
 
-    def environment() -> float:
-        env.reset(seed=0)
-        start = time.process_time()
-        for action in actions:
-            _, _, terminated, truncated, _ = env.step(action)
-            if terminated or truncated:
-                env.reset()
-        return (time.process_time() - start) / steps
-
     def simulator() -> float:
         stepper = EpisodeStepper(scenario, "failure_aware", 0, record=False)
         modes = ["agent"] * len(scenario.robots)
-        episode = 0
-        start = time.process_time()
+        episode, start = 0, 0.0
         obs = stepper.sense()
-        for action in actions:
+        # as the environment is timed: 20 steps untimed, then every velocity again
+        for k, action in enumerate([*actions[:WARM_UP], *actions]):
+            if k == WARM_UP:
+                start = time.process_time()
             bounds = stepper.team.config.velocity_bounds
             lower, upper = bounds(list(range(len(action))), obs.positions)
             stepper.act(Decision(np.minimum(np.maximum(action, lower), upper), modes))
@@ -270,9 +276,9 @@ def episode_costs(steps: int, rounds: int) -> dict[str, float]:
 
     best = {"environment": float("inf"), "simulator alone": float("inf")}
     for _ in range(rounds):
-        best["environment"] = min(best["environment"], environment())
-        best["simulator alone"] = min(best["simulator alone"], simulator())
-    return {name: 1e6 * seconds for name, seconds in best.items()}
+        best["environment"] = min(best["environment"], cpu_us_per_step(SCENARIO, steps))
+        best["simulator alone"] = min(best["simulator alone"], 1e6 * simulator())
+    return best
 
 
 def filter_costs(calls: int, rounds: int) -> dict[str, float]:
@@ -281,8 +287,9 @@ def filter_costs(calls: int, rounds: int) -> dict[str, float]:
     CasADi call's cost."""
     import casadi
 
-    difference = largest_difference()
-    given = filter_inputs()
+    cases = filter_inputs()
+    difference = largest_difference(cases)
+    given = cases[1]
     ekf, estimate = given["ekf"], given["estimate"]
     positions, measurements = given["positions"], given["measurements"]
 
