@@ -109,6 +109,21 @@ def test_actions_of_agents_are_recorded_clipped_and_never_invalid():
     assert (tables["events"]["event"] != "invalid_decision").all()
 
 
+def test_an_action_that_is_not_finite_holds_its_robot_as_an_invalid_decision():
+    env = parallel_env("sensing-temp", steps=3)
+    env.reset(seed=0)
+    before = env.session.running.world.robot_positions.copy()
+    actions = {a: np.array([0.2, 0.1]) for a in env.agents}
+    actions[env.agents[1]] = np.array([np.nan, 0.0])
+    env.step(actions)
+    after = env.session.running.world.robot_positions
+    assert np.array_equal(after[1], before[1])  # robot 1 held its position
+    assert not np.array_equal(after[0], before[0])
+    events = env.session.result()["events"]
+    invalid = events[events["event"] == "invalid_decision"]
+    assert invalid["robot"].tolist() == [1]
+
+
 def test_observations_are_what_the_robot_knows():
     env = parallel_env("sensing-perm", steps=STEPS)
     obs, _ = env.reset(seed=1)

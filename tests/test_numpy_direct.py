@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 from resilient_tracking.models import numpy_direct
-from resilient_tracking.models.numpy_direct import cholesky_exists, einsum, solve
+from resilient_tracking.models.numpy_direct import (
+    IN_ORDER,
+    cholesky_exists,
+    einsum,
+    solve,
+    sum_in_order,
+)
 
 # the signatures the filter and the hazards use, with operands of their shapes
 SIGNATURES = {
@@ -35,6 +41,14 @@ def test_solve_is_numpys_bit_for_bit_and_refuses_a_singular_stack() -> None:
     singular = np.zeros((1, 2, 2))
     with pytest.raises(np.linalg.LinAlgError):
         solve(singular, np.ones((1, 2, 1)))
+
+
+def test_sum_in_order_is_numpys_sum_of_a_few_numbers_bit_for_bit() -> None:
+    rng = np.random.default_rng(9)
+    for n in range(IN_ORDER + 1):
+        for _ in range(500):  # magnitudes far apart: the order of the additions shows
+            values = rng.normal(size=n) * 10.0 ** rng.integers(-8, 8, size=n)
+            assert sum_in_order(values.tolist()) == float(np.add.reduce(values))
 
 
 def test_cholesky_exists_where_numpys_cholesky_succeeds() -> None:

@@ -169,16 +169,24 @@ class Team:
         return events
 
     def decide(
-        self, obs: TeamObservation, events: list[Event], decision: Decision | None = None
+        self,
+        obs: TeamObservation,
+        events: list[Event],
+        decision: Decision | None = None,
+        valid: bool = False,
     ) -> TeamStep:
         """The second half of a tick, after :meth:`perceive` gave ``events``: the policy's
         decision (or ``decision``, made elsewhere, e.g. by a learning agent), checked like the
-        policy's; returns the commands and every event of the tick."""
+        policy's; returns the commands and every event of the tick. ``valid``: ``decision``
+        is valid by construction (finite ``(M, 2)`` controls clipped to
+        :meth:`~resilient_tracking.team_config.TeamConfig.velocity_bounds`, a mode per robot),
+        so it is not checked again."""
         if decision is None:
-            decision = self.policy.act(self.belief, obs)
-        controls, problems = decision_problems(decision, self.config, obs.positions)
-        if problems:
-            decision = self._contain(decision, controls, problems, obs)
+            decision, valid = self.policy.act(self.belief, obs), False
+        if not valid:
+            controls, problems = decision_problems(decision, self.config, obs.positions)
+            if problems:
+                decision = self._contain(decision, controls, problems, obs)
         events = events + decision.events
         events += [
             Event.zone_learned(obs.step, robot, z.key, z.kind, z.source, z.zone_id, z.persistence)

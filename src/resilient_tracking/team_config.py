@@ -40,7 +40,10 @@ class TeamConfig:
 
         The whole team's bounds (``robots`` all, in order) are kept for the last positions
         asked (read-only), as a tick asks for them more than once."""
-        whole = len(positions) == len(self.u_max) and list(robots) == list(range(len(positions)))
+        everyone = self._everyone
+        whole = len(positions) == len(everyone) and (
+            robots == everyone if type(robots) is list else list(robots) == everyone
+        )
         if whole and isinstance(positions, np.ndarray) and positions.dtype == np.float64:
             key = positions.tobytes()
             memo = self._team_bounds
@@ -98,6 +101,11 @@ class TeamConfig:
         if corners.size != 4 or np.isnan(umax).any():
             return None
         return corners.ravel().tolist(), float(dt), umax.ravel().tolist()
+
+    @functools.cached_property
+    def _everyone(self) -> list[int]:
+        """The whole team's indices, in order."""
+        return list(range(len(self.u_max)))
 
     @functools.cached_property
     def _corners(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

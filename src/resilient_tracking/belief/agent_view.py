@@ -23,6 +23,7 @@ field                     shape         content
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,43 +77,44 @@ def team_views(
     """Every robot's view (module docstring) after ``belief`` took in ``obs``, each field with a
     leading axis of the ``M`` robots; ``u_max`` ``(M,)`` are their speed bounds."""
     m = obs.n_robots
-    league_of = belief.league_of
+    positions = obs.positions
     # the rows as Python numbers, made float32 in one call (the same rounding as NumPy's cast)
     time = float(obs.time)
-    own = np.array(
-        [
-            [*xy, bound, sensing, comm, p == "permanent", q == "permanent", time]
-            for xy, bound, sensing, comm, p, q in zip(
-                obs.positions.tolist(),
-                u_max.tolist(),
-                obs.sensing_ok.tolist(),
-                obs.comm_ok.tolist(),
-                obs.sensing_persistence,
-                obs.comm_persistence,
-                strict=True,
-            )
-        ],
-        dtype=np.float32,
-    )
-    if len(belief.estimates) == 1:  # one league: every robot sees the same estimate
-        means = np.empty((m, *belief.estimates[0].mean.shape), dtype=np.float32)
-        covs = np.empty((m, *belief.estimates[0].cov.shape), dtype=np.float32)
-        means[:], covs[:] = belief.estimates[0].mean, belief.estimates[0].cov
+    rows: list[float] = []
+    for xy, bound, sensing, comm, p, q in zip(
+        positions.tolist(),
+        u_max.tolist(),
+        obs.sensing_ok.tolist(),
+        obs.comm_ok.tolist(),
+        obs.sensing_persistence,
+        obs.comm_persistence,
+        strict=True,
+    ):
+        rows += (*xy, bound, sensing, comm, p == "permanent", q == "permanent", time)
+    own = np.array(rows, dtype=np.float32).reshape(m, 8)
+    estimates = belief.estimates
+    if len(estimates) == 1:  # one league: every robot sees the same estimate
+        mean, cov = estimates[0].mean, estimates[0].cov
+        means = np.empty((m, *mean.shape), dtype=np.float32)
+        covs = np.empty((m, *cov.shape), dtype=np.float32)
+        means[:] = mean
+        covs[:] = cov
     else:
-        means = np.stack([e.mean for e in belief.estimates]).astype(np.float32)[league_of]
-        covs = np.stack([e.cov for e in belief.estimates]).astype(np.float32)[league_of]
+        means = np.stack([e.mean for e in estimates]).astype(np.float32)[belief.league_of]
+        covs = np.stack([e.cov for e in estimates]).astype(np.float32)[belief.league_of]
     if len(belief.leagues) == 1:  # one league: every other robot is a teammate
-        mates = np.ones((m, m), dtype=np.float32)
+        mates = _all_others(m).copy()
     else:
+        league_of = belief.league_of
         mates = (league_of[:, None] == league_of[None, :]).astype(np.float32)
-    mates.flat[:: m + 1] = 0.0  # not its own teammate
+        mates.flat[:: m + 1] = 0.0  # not its own teammate
     teammates = np.empty((m, m, 2), dtype=np.float32)
-    teammates[:] = obs.positions
+    teammates[:] = positions
     zones = np.zeros((m, max_zones, 7), dtype=np.float32)
     zones_mask = np.zeros((m, max_zones), dtype=np.float32)
-    for robot in range(m):
-        if belief.knowledge[robot].zones:
-            _zone_rows(belief, robot, obs.positions[robot], zones[robot], zones_mask[robot])
+    for robot, knowledge in enumerate(belief.knowledge):
+        if knowledge.zones:
+            _zone_rows(belief, robot, positions[robot], zones[robot], zones_mask[robot])
     return {
         "own": own,
         "targets": means,
@@ -122,6 +124,16 @@ def team_views(
         "zones": zones,
         "zones_mask": zones_mask,
     }
+
+
+@functools.cache
+def _all_others(m: int) -> np.ndarray:
+    """``(m, m)`` teammate mask of a team in one league: 1 but on the diagonal (read-only,
+    shared: copied before use)."""
+    mates = np.ones((m, m), dtype=np.float32)
+    mates.flat[:: m + 1] = 0.0
+    mates.flags.writeable = False
+    return mates
 
 
 def agent_view(

@@ -31,7 +31,6 @@ measurement is far from linear across the prior's spread (a bearing's Hessian gr
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -39,10 +38,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.models.finite import all_finite, sum_is_finite
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.numpy_direct import einsum as _einsum
 from resilient_tracking.models.numpy_direct import solve as _solve
-from resilient_tracking.models.sensor import MeasurementModel, wrap_angle
+from resilient_tracking.models.sensor import MeasurementModel, wrap_angle_in_place
 
 FloatArray = NDArray[np.float64]
 
@@ -193,8 +193,7 @@ class ExtendedKalmanFilter:
             raise ValueError(
                 f"measurements must have shape ({k}, {n}, {sensor.DIM}), got {z.shape}"
             )
-        # a finite sum has finite terms: the elementwise test only when the sum is not finite
-        if not math.isfinite(np.add.reduce(robots, axis=None)) and not np.isfinite(robots).all():
+        if not all_finite(robots):
             raise ValueError("robot_positions must be finite")
 
         mean, cov = est.mean, est.cov
@@ -210,13 +209,13 @@ class ExtendedKalmanFilter:
             var = var + 0.5 * np.einsum("kncab,kncba->knc", hp, hp)
 
         # every robot measured every target (a finite sum has finite terms): nothing to mask
-        measured_all = math.isfinite(np.add.reduce(z, axis=None))
+        measured_all = sum_is_finite(z)
         valid = _all_true(k, n) if measured_all else np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
         if at is not None:  # iterated EKF: z − h(p_i) − H_i (p̂ − p_i)
             innov = innov - np.einsum("kncj,nj->knc", hjac, mean[:, :2] - at)
         for channel in sensor.ANGLES:
-            innov[..., channel] = wrap_angle(innov[..., channel])
+            wrap_angle_in_place(innov[..., channel])
         if measured_all:
             rinv = np.divide(_ONE, var)
         else:

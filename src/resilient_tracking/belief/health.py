@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from resilient_tracking.models.finite import all_finite
 from resilient_tracking.models.numpy_direct import cholesky_exists
 
 FloatArray = NDArray[np.float64]
@@ -106,8 +107,8 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     every diagonal entry is above ``t > 0``, so the stack's total trace ``Σ tr P`` bounds each
     matrix's ``λmax ≤ tr P``, and ``t`` is at least twice each matrix's floor (a stack of very
     unequal matrices may fail where each alone would pass: the eigen path then decides)."""
-    if not math.isfinite(np.add.reduce(cov, axis=None)) and not np.isfinite(cov).all():
-        return None  # (a finite sum has finite terms: the elementwise test only otherwise)
+    if not all_finite(cov):
+        return None
     transposed = cov.swapaxes(1, 2)
     if np.count_nonzero(cov != transposed) == 0:  # (quicker than (cov == transposed).all())
         sym = cov
@@ -116,7 +117,9 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
         if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
             return None
         sym = 0.5 * (cov + transposed)
-    total_trace = float(np.add.reduce(sym.diagonal(0, 1, 2), axis=None))
+    # (any rounding of the sum will do: the shift has a margin of 2, and a stack that fails
+    # this test goes to the eigen path, which decides alone)
+    total_trace = sum(sym.diagonal(0, 1, 2).ravel().tolist())
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
         return None

@@ -19,6 +19,7 @@ import numpy as np
 
 from resilient_tracking.belief.agent_view import MAX_ZONES, ViewShape, team_views
 from resilient_tracking.env.reward import StepOutcome, TrackingReward
+from resilient_tracking.models.finite import all_finite
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.records import EpisodeResult
 from resilient_tracking.scenario import Scenario
@@ -94,10 +95,13 @@ class TrackingSession:
         # (np.clip's numbers, without its Python wrapper)
         controls = np.minimum(np.maximum(np.asarray(controls, dtype=float), lower), upper)
         trace_before = self.trace
-        decision = self._expert_decision
+        decision, valid = self._expert_decision, False
         if decision is None or not np.array_equal(controls, decision.controls):
             decision = Decision(controls, [AGENT_MODE] * len(controls))
-        stepper.act(decision)
+            # clipped to the team's bounds, so valid if finite and one row per robot (else
+            # the team's check holds the robots concerned, as any invalid decision)
+            valid = controls.shape == lower.shape and all_finite(controls)
+        stepper.act(decision, valid)
         self._expert_decision = None
         after = stepper.sense()
         self.attacks += len(after.attacks)
@@ -106,7 +110,7 @@ class TrackingSession:
             trace_before=trace_before,
             trace_after=self.trace,
             attacks=len(after.attacks),
-            sensing=int(np.count_nonzero(after.sensing_ok)),
+            sensing=after.sensing_ok.tolist().count(True),
         )
         terminated = outcome.sensing == 0
         truncated = stepper.steps_done >= self.scenario.steps
@@ -139,8 +143,8 @@ class TrackingSession:
             "trace": self.trace,
             "mse": stepper.last_mse,
             "attacks": self.attacks,
-            "n_sensing_failed": int(obs.n_robots - np.count_nonzero(obs.sensing_ok)),
-            "n_comm_failed": int(obs.n_robots - np.count_nonzero(obs.comm_ok)),
+            "n_sensing_failed": obs.sensing_ok.tolist().count(False),
+            "n_comm_failed": obs.comm_ok.tolist().count(False),
             "n_leagues": len(stepper.team.belief.leagues),
         }
 

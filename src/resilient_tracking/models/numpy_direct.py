@@ -39,7 +39,11 @@ try:
 except Exception:  # another NumPy: np.errstate itself
     _extobj_contextvar = _RAISE_INVALID = None
 
-__all__ = ["cholesky_exists", "einsum", "solve"]
+__all__ = ["IN_ORDER", "cholesky_exists", "einsum", "solve", "sum_in_order"]
+
+#: NumPy sums up to this many float64 numbers one after another, from the first; more, pairwise
+#: (:func:`sum_in_order`).
+IN_ORDER = 7
 
 
 def solve(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -67,6 +71,18 @@ def cholesky_exists(a: FloatArray) -> bool:
     finally:
         _restore(token)
     return True
+
+
+def sum_in_order(values: list[float]) -> float:
+    """``np.add.reduce``'s sum of up to :data:`IN_ORDER` float64 numbers, given as Python
+    floats: each added in turn to the first (0.0 for none), the same IEEE additions in the same
+    order, without a NumPy call. More numbers NumPy sums pairwise: not for this function."""
+    if not values:
+        return 0.0
+    total = values[0]
+    for value in values[1:]:
+        total += value
+    return total
 
 
 def _raise_invalid() -> Any:

@@ -68,6 +68,12 @@ def wrap_angle(a: FloatArray | float) -> FloatArray | float:
     return (x + np.pi) % (2.0 * np.pi) - np.pi
 
 
+def wrap_angle_in_place(a: FloatArray) -> None:
+    """:func:`wrap_angle` of the float64 array ``a``, written into ``a`` (a view may be
+    given: its base is changed)."""
+    np.subtract(np.remainder(np.add(a, _PI), _TWO_PI), _PI, out=a)
+
+
 def range_hessian(delta: FloatArray) -> FloatArray:
     """Hessian of the range ``‖δ‖`` w.r.t. the target, ``(I − uuᵀ)/d`` (``u = δ/d``, ``d``
     clamped at ``MIN_RANGE``), for offsets ``δ = p − x`` ``(..., 2)``: ``(..., 2, 2)``."""
@@ -342,8 +348,9 @@ class RangeBearingSensor(MeasurementModel):
 
     def _predict(self, delta: FloatArray) -> FloatArray:
         out = np.empty(delta.shape)
-        out[..., 0] = np.hypot(delta[..., 0], delta[..., 1])
-        out[..., 1] = np.arctan2(delta[..., 1], delta[..., 0])
+        dx, dy = delta[..., 0], delta[..., 1]
+        np.hypot(dx, dy, out=out[..., 0])  # (written in place: no temporaries, same numbers)
+        np.arctan2(dy, dx, out=out[..., 1])
         return out
 
     def noise_variance(self, distance: FloatArray | float) -> FloatArray:
@@ -416,8 +423,7 @@ class RangeBearingSensor(MeasurementModel):
         exponent = np.minimum(np.multiply(shapes, clean[..., 0:1]), cap)
         std = np.sqrt(np.divide(np.exp(exponent), peaks))
         z = clean + std * rng.standard_normal(clean.shape)
-        bearing = z[..., 1]
-        np.subtract(np.remainder(np.add(bearing, _PI), _TWO_PI), _PI, out=bearing)
+        wrap_angle_in_place(z[..., 1])
         return z
 
     @functools.cached_property

@@ -24,6 +24,7 @@ import numpy as np
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.build import prior_estimate
 from resilient_tracking.events import Event
+from resilient_tracking.models.finite import all_finite
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook
 from resilient_tracking.policies.base import Decision
@@ -49,13 +50,22 @@ class NonFiniteError(ArithmeticError):
     (a plug-in's motion or sensor, a numerical bug) before a table holds NaN or infinity."""
 
 
+#: What :meth:`EpisodeStepper.act` checks each step, by name, in order.
+CHECKED = (
+    "a robot's position",
+    "a robot's applied control",
+    "a target's true state",
+    "the team's target estimate",
+    "the team's target covariance",
+    "the MSE of the team's estimate",
+)
+
+
 def check_finite(step: int, quantities: dict[str, Any]) -> None:
     """Raise :class:`NonFiniteError` naming the first of ``quantities`` (name: number or
     array) that holds a number that is not finite."""
     for name, value in quantities.items():
-        # a finite sum has finite terms: the elementwise test only when the sum is not finite
-        total = value if isinstance(value, float) else np.add.reduce(value, axis=None)
-        if not math.isfinite(total) and not np.isfinite(value).all():
+        if not (math.isfinite(value) if isinstance(value, float) else all_finite(value)):
             raise NonFiniteError(f"step {step}: {name} is not finite")
 
 
@@ -95,9 +105,16 @@ class EpisodeStepper:
         #: whether each step's rows are recorded (``False``: no tables, for a caller that
         #: reads none, such as a learning environment that never renders)
         self.record = record
-        steps = scenario.steps if record else 0
-        self.team_rows = TeamRecorder(self.world.n_robots, len(self.world.targets), steps)
-        self.truth_rows = TruthRecorder(len(self.world.targets), steps, self.world.zones)
+        n_targets = len(self.world.targets)
+        #: the recorders of the team's rows and of truth's (``None`` when not recording)
+        self.rows = (
+            (
+                TeamRecorder(self.world.n_robots, n_targets, scenario.steps),
+                TruthRecorder(n_targets, scenario.steps, self.world.zones),
+            )
+            if record
+            else None
+        )
         #: the MSE of the team's estimate at the last step acted (NaN before the first)
         self.last_mse = float("nan")
         #: steps acted (and recorded) so far
@@ -112,51 +129,44 @@ class EpisodeStepper:
         self.obs = obs = self.world.observe()
         self._truth = self.world.target_states
         truth_events = self.world.take_truth_events()
-        if self.record and truth_events:
-            self.truth_rows.record_events(truth_events)
+        if self.rows is not None and truth_events:
+            self.rows[1].record_events(truth_events)
         self._events = self.team.perceive(obs)
         return obs
 
-    def act(self, decision: Decision | None = None) -> TeamStep:
-        """The team's decision for the sensed step (its policy's, or ``decision``), recorded;
-        then the world advances with its commands."""
+    def act(self, decision: Decision | None = None, valid: bool = False) -> TeamStep:
+        """The team's decision for the sensed step (its policy's, or ``decision``: checked,
+        unless ``valid`` by construction, see :meth:`~resilient_tracking.team.Team.decide`),
+        recorded; then the world advances with its commands."""
         obs, truth = self.obs, self._truth
         if obs is None or truth is None:
             raise RuntimeError("EpisodeStepper.act: sense the step first")
-        out = self.team.decide(obs, self._events, decision)
+        out = self.team.decide(obs, self._events, decision, valid)
         applied = self.world.step(out.controls)
         estimate = self.team.belief.team_estimate()
-        if self.record:
-            self.team_rows.step(obs, out, applied, self.team.belief)
-            self.truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
-            self.last_mse = float(self.truth_rows.team.last("mse"))
+        if self.rows is not None:
+            team_rows, truth_rows = self.rows
+            team_rows.step(obs, out, applied, self.team.belief)
+            truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
+            self.last_mse = float(truth_rows.team.last("mse"))
         else:
             self.last_mse = mse(estimate.mean[:, :2], truth[:, :2])
-        check_finite(
-            obs.step,
-            {
-                "a robot's position": obs.positions,
-                "a robot's applied control": applied,
-                "a target's true state": truth,
-                "the team's target estimate": estimate.mean,
-                "the team's target covariance": estimate.cov,
-                "the MSE of the team's estimate": self.last_mse,
-            },
-        )
+        arrays = (obs.positions, applied, truth, estimate.mean, estimate.cov)
+        if not (math.isfinite(self.last_mse) and all(map(all_finite, arrays))):
+            check_finite(obs.step, dict(zip(CHECKED, (*arrays, self.last_mse), strict=True)))
         self.obs, self._truth, self._events = None, None, []
         self.steps_done += 1
         return out
 
     def result(self, wall: float = float("nan")) -> EpisodeResult:
         """The tables of the steps acted so far, with the manifest (``wall``: seconds taken)."""
-        if not self.record:
+        if self.rows is None:
             raise RuntimeError("this episode records no tables (record=False)")
         manifest = episode_manifest(
             self.scenario, self.seed, self.policy_name, self.steps_done, wall
         )
-        return EpisodeResult(
-            join_tables(self.team_rows.tables(), self.truth_rows.tables()), manifest
-        )
+        team_rows, truth_rows = self.rows
+        return EpisodeResult(join_tables(team_rows.tables(), truth_rows.tables()), manifest)
 
 
 def run_episode(
