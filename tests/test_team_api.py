@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -150,3 +152,30 @@ def test_leagues_follow_the_links_even_when_they_change_in_place():
         seen.append([list(league) for league in team.belief.leagues])
     whole, split = [[0, 1, 2]], [[0, 1], [2]]
     assert seen == [whole, whole, split, split, whole]
+
+
+@pytest.mark.parametrize(
+    ("robots", "targets", "channels", "message"),
+    [
+        (2, 3, 2, "TeamObservation.positions: the team has 3 robots, got 2"),
+        (3, 2, 2, "TeamObservation.measurements: the team tracks 3 targets, got 2"),
+        (3, 3, 1, "the team's sensor measures 2 channel(s), got 1"),
+    ],
+)
+def test_an_observation_that_does_not_fit_the_team_is_refused_naming_the_field(
+    robots, targets, channels, message
+):
+    team = Team.from_scenario(shipped("sensing-perm"), np.zeros((3, 4)))
+    obs = TeamObservation(
+        step=0,
+        time=0.0,
+        positions=np.zeros((robots, 2)),
+        measurements=np.ones((robots, targets, channels)),
+        sensing_ok=np.ones(robots, bool),
+        comm_ok=np.ones(robots, bool),
+        sensing_persistence=("",) * robots,
+        comm_persistence=("",) * robots,
+        links=~np.eye(robots, dtype=bool),
+    )
+    with pytest.raises(ValueError, match=re.escape(message)):
+        team.perceive(obs)

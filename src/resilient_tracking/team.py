@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import numpy as np
 
@@ -138,6 +139,26 @@ class Team:
     def perceive(self, obs: TeamObservation) -> list[Event]:
         """The first half of a tick: check ``obs``, update the belief with it; return the
         tick's events so far (attacks and recoveries observed, then the belief's)."""
+        shape = (self.belief.n_robots, self.n_targets, self.measurement_dim)
+        if obs.measurements.shape != shape or len(obs.positions) != shape[0]:
+            self._refuse(obs)
+        events = [
+            Event.attack(
+                obs.step,
+                a.robot,
+                a.clue.kind,
+                a.clue.zone_id,
+                "temporary" if a.cause == "jamming" else a.clue.persistence,
+                a.cause,
+            )
+            for a in obs.attacks
+        ]
+        events += [Event.recover(obs.step, robot, kind) for robot, kind in obs.recoveries]
+        events += self.belief.update(obs)
+        return events
+
+    def _refuse(self, obs: TeamObservation) -> NoReturn:
+        """Raise the ``ValueError`` naming what of ``obs`` does not fit the team."""
         if obs.n_robots != self.belief.n_robots:
             raise ValueError(
                 f"TeamObservation.positions: the team has {self.belief.n_robots} robots, "
@@ -153,20 +174,10 @@ class Team:
                 f"TeamObservation.measurements: the team's sensor measures "
                 f"{self.measurement_dim} channel(s), got {obs.measurement_dim}"
             )
-        events = [
-            Event.attack(
-                obs.step,
-                a.robot,
-                a.clue.kind,
-                a.clue.zone_id,
-                "temporary" if a.cause == "jamming" else a.clue.persistence,
-                a.cause,
-            )
-            for a in obs.attacks
-        ]
-        events += [Event.recover(obs.step, robot, kind) for robot, kind in obs.recoveries]
-        events += self.belief.update(obs)
-        return events
+        raise ValueError(  # (the measurements' robots differ from the positions')
+            f"TeamObservation.measurements: expected {self.belief.n_robots} robots' rows, "
+            f"got {obs.measurements.shape[0]}"
+        )
 
     def decide(
         self,

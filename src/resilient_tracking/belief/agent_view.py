@@ -152,19 +152,14 @@ def _zone_rows(
 ) -> None:
     """Fill ``zones`` and ``mask`` with the zones ``robot`` knows, nearest (by estimated
     centre) first, as many as there are rows."""
-    known = sorted(
-        belief.knowledge[robot].zones.values(),
-        key=lambda z: (float(np.hypot(*(z.mean - position))), z.key),
-    )
-    for row, z in enumerate(known[: len(mask)]):
-        cov = z.cov
-        zones[row] = (
-            z.mean[0],
-            z.mean[1],
-            cov[0, 0],
-            cov[0, 1],
-            cov[1, 1],
-            z.size,
-            z.kind == "comm",
-        )
-        mask[row] = 1.0
+    known = list(belief.knowledge[robot].zones.values())
+    offsets = np.array([z.mean for z in known]) - position
+    distances = np.hypot(offsets[:, 0], offsets[:, 1]).tolist()
+    nearest = sorted(range(len(known)), key=lambda i: (distances[i], known[i].key))
+    rows = []
+    for i in nearest[: len(mask)]:
+        z = known[i]
+        (x, y), ((sxx, sxy), (_, syy)) = z.mean.tolist(), z.cov.tolist()
+        rows.append((x, y, sxx, sxy, syy, z.size, z.kind == "comm"))
+    zones[: len(rows)] = rows
+    mask[: len(rows)] = 1.0
