@@ -110,7 +110,8 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     if not all_finite(cov):
         return None
     transposed = cov.swapaxes(1, 2)
-    if np.count_nonzero(cov != transposed) == 0:  # (quicker than (cov == transposed).all())
+    # the same bytes (as the filter leaves it) is symmetric; else compare the numbers (±0)
+    if cov.tobytes() == transposed.tobytes() or np.count_nonzero(cov != transposed) == 0:
         sym = cov
     else:
         scale = np.maximum(np.abs(cov).max(axis=(1, 2)), np.finfo(float).tiny)

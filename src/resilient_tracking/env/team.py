@@ -55,7 +55,7 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
     ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Every robot moves with its row of ``action``; the team's view, reward,
         terminated, truncated and the run's numbers."""
-        reward, terminated, truncated = self.session.step(np.asarray(action, dtype=float))
+        reward, terminated, truncated = self.session.step(action)
         return self.session.views(), reward, terminated, truncated, self.session.metrics()
 
     def expert_action(self) -> np.ndarray:
