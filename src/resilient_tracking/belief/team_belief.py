@@ -28,9 +28,10 @@ Each tick (docs/model.md §3–4):
 
 from __future__ import annotations
 
+import functools
 import inspect
 import logging
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 from typing import Literal
 
@@ -83,7 +84,12 @@ class TeamBelief:
                 watch = replace(watch, learn_zone=False)
             self.degradation_watch = DegradationWatch(n_robots, watch)
         #: whether the estimator's update takes ``noise_scale`` (the EKF and the IMM do)
-        self._scales_noise = "noise_scale" in inspect.signature(estimator.update).parameters
+        function = getattr(estimator.update, "__func__", None)  # (a method's: asked once)
+        self._scales_noise = (
+            _takes_noise_scale(function)
+            if function is not None
+            else "noise_scale" in inspect.signature(estimator.update).parameters
+        )
         #: a league with a robot found degraded: the watch's careful update where the estimator
         #: offers one (the EKF; the IMM's modes already update that way)
         self._degraded_update = estimator.update
@@ -303,6 +309,13 @@ class TeamBelief:
             ),
         )
         return self.estimates[best]
+
+
+@functools.lru_cache(maxsize=64)
+def _takes_noise_scale(update: Callable[..., object]) -> bool:
+    """Whether an estimator's ``update`` takes ``noise_scale`` (kept per function: every
+    episode makes a belief)."""
+    return "noise_scale" in inspect.signature(update).parameters
 
 
 def _reseated_modes(
