@@ -266,8 +266,9 @@ def episode_costs(steps: int, rounds: int) -> dict[str, float]:
                 start = time.process_time()
             bounds = stepper.team.config.velocity_bounds
             lower, upper = bounds(list(range(len(action))), obs.positions)
-            # valid by construction, as the environment passes it: clipped, finite
-            stepper.act(Decision(np.minimum(np.maximum(action, lower), upper), modes), True)
+            # valid by construction (clipped, finite): not checked again, as in the environment
+            clipped = np.minimum(np.maximum(action, lower), upper)
+            stepper.act(Decision(clipped, modes), valid=True)
             obs = stepper.sense()
             if stepper.steps_done >= scenario.steps or not obs.sensing_ok.any():  # as it resets
                 episode += 1

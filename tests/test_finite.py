@@ -31,6 +31,12 @@ def test_finite_terms_whose_sum_overflows_are_finite(size: int) -> None:
     assert all_finite(values)  # the elementwise test then does
 
 
+def test_arrays_of_integers_booleans_and_no_axes() -> None:
+    assert all_finite(np.arange(10)) and all_finite(np.ones(5, dtype=bool))
+    assert all_finite(np.array(2.5)) and not all_finite(np.array(np.nan))
+    assert all_finite(np.float32([1.0, 2.0])) and not all_finite(np.float32([1.0, np.inf]))
+
+
 def test_arrays_of_any_layout_and_shape() -> None:
     stack = np.arange(48.0).reshape(3, 4, 4)
     assert all_finite(stack.swapaxes(1, 2)) and all_finite(stack[:, :2, :2])

@@ -46,9 +46,12 @@ def test_solve_is_numpys_bit_for_bit_and_refuses_a_singular_stack() -> None:
 def test_sum_in_order_is_numpys_sum_of_a_few_numbers_bit_for_bit() -> None:
     rng = np.random.default_rng(9)
     for n in range(IN_ORDER + 1):
+        cases = [np.full(n, -0.0), np.full(n, np.inf), np.full(n, -np.inf)]
         for _ in range(500):  # magnitudes far apart: the order of the additions shows
-            values = rng.normal(size=n) * 10.0 ** rng.integers(-8, 8, size=n)
-            assert sum_in_order(values.tolist()) == float(np.add.reduce(values))
+            cases.append(rng.normal(size=n) * 10.0 ** rng.integers(-8, 8, size=n))
+        for values in cases:
+            ours = np.float64(sum_in_order(values.tolist())).tobytes()  # (the sign of 0 too)
+            assert ours == np.add.reduce(values).tobytes()
 
 
 def test_cholesky_exists_where_numpys_cholesky_succeeds() -> None:

@@ -161,5 +161,6 @@ def _zone_rows(
         z = known[i]
         (x, y), ((sxx, sxy), (_, syy)) = z.mean.tolist(), z.cov.tolist()
         rows.append((x, y, sxx, sxy, syy, z.size, z.kind == "comm"))
-    zones[: len(rows)] = rows
-    mask[: len(rows)] = 1.0
+    if rows:  # (no rows with max_zones=0)
+        zones[: len(rows)] = rows
+        mask[: len(rows)] = 1.0

@@ -119,7 +119,7 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
             return None
         sym = 0.5 * (cov + transposed)
     # (any rounding of the sum will do: the shift has a margin of 2, and a stack that fails
-    # this test goes to the eigen path, which decides alone)
+    # this test goes to the eigen path, which finds no repair either: the same result)
     total_trace = sum(sym.diagonal(0, 1, 2).ravel().tolist())
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides

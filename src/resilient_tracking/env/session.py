@@ -100,7 +100,7 @@ class TrackingSession:
             decision = Decision(controls, [AGENT_MODE] * len(controls))
             # clipped to the team's bounds, so valid if finite and one row per robot (else
             # the team's check holds the robots concerned, as any invalid decision)
-            valid = controls.shape == lower.shape and all_finite(controls)
+            valid = controls.shape == obs.positions.shape and all_finite(controls)
         stepper.act(decision, valid)
         self._expert_decision = None
         after = stepper.sense()

@@ -41,7 +41,7 @@ except Exception:  # another NumPy: np.errstate itself
 
 __all__ = ["IN_ORDER", "cholesky_exists", "einsum", "solve", "sum_in_order"]
 
-#: NumPy sums up to this many float64 numbers one after another, from the first; more, pairwise
+#: NumPy sums up to this many float64 numbers one after another, onto 0.0; more, pairwise
 #: (:func:`sum_in_order`).
 IN_ORDER = 7
 
@@ -75,12 +75,12 @@ def cholesky_exists(a: FloatArray) -> bool:
 
 def sum_in_order(values: list[float]) -> float:
     """``np.add.reduce``'s sum of up to :data:`IN_ORDER` float64 numbers, given as Python
-    floats: each added in turn to the first (0.0 for none), the same IEEE additions in the same
-    order, without a NumPy call. More numbers NumPy sums pairwise: not for this function."""
-    if not values:
-        return 0.0
-    total = values[0]
-    for value in values[1:]:
+    floats: each added in turn onto 0.0, the same IEEE additions in the same order (so a sum of
+    −0.0s is 0.0, as NumPy's), without a NumPy call. More numbers NumPy sums pairwise: not for
+    this function. ``tests/test_numpy_direct.py`` checks it against NumPy, bit for bit, so a
+    NumPy that sums otherwise fails the tests, not the results."""
+    total = 0.0
+    for value in values:
         total += value
     return total
 

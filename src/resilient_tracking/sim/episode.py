@@ -51,7 +51,7 @@ class NonFiniteError(ArithmeticError):
 
 
 #: What :meth:`EpisodeStepper.act` checks each step, by name, in order.
-CHECKED = (
+_CHECKED = (
     "a robot's position",
     "a robot's applied control",
     "a target's true state",
@@ -65,7 +65,8 @@ def check_finite(step: int, quantities: dict[str, Any]) -> None:
     """Raise :class:`NonFiniteError` naming the first of ``quantities`` (name: number or
     array) that holds a number that is not finite."""
     for name, value in quantities.items():
-        if not (math.isfinite(value) if isinstance(value, float) else all_finite(value)):
+        finite = math.isfinite(value) if isinstance(value, float) else all_finite(np.asarray(value))
+        if not finite:
             raise NonFiniteError(f"step {step}: {name} is not finite")
 
 
@@ -102,9 +103,6 @@ class EpisodeStepper:
         self.seed = seed
         self.world = World(scenario, seed)
         self.team = build_team(scenario, policy, seed, self.world.target_states, fault_hook)
-        #: whether each step's rows are recorded (``False``: no tables, for a caller that
-        #: reads none, such as a learning environment that never renders)
-        self.record = record
         n_targets = len(self.world.targets)
         #: the recorders of the team's rows and of truth's (``None`` when not recording)
         self.rows = (
@@ -123,6 +121,12 @@ class EpisodeStepper:
         self.obs: TeamObservation | None = None
         self._truth: np.ndarray | None = None
         self._events: list[Event] = []
+
+    @property
+    def record(self) -> bool:
+        """Whether each step's rows are recorded (``False``: no tables, for a caller that reads
+        none, such as a learning environment that never renders)."""
+        return self.rows is not None
 
     def sense(self) -> TeamObservation:
         """Observe the world at the current step and update the team's belief with it."""
@@ -153,7 +157,7 @@ class EpisodeStepper:
             self.last_mse = mse(estimate.mean[:, :2], truth[:, :2])
         arrays = (obs.positions, applied, truth, estimate.mean, estimate.cov)
         if not (math.isfinite(self.last_mse) and all(map(all_finite, arrays))):
-            check_finite(obs.step, dict(zip(CHECKED, (*arrays, self.last_mse), strict=True)))
+            check_finite(obs.step, dict(zip(_CHECKED, (*arrays, self.last_mse), strict=True)))
         self.obs, self._truth, self._events = None, None, []
         self.steps_done += 1
         return out

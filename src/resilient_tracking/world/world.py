@@ -147,16 +147,10 @@ class World:
     def target_states(self) -> np.ndarray:
         """(N, 4) true ``[px, py, vx, vy]``."""
         motions = [t.motion for t in self.targets]
-        try:  # the rows as Python floats, one array made of them (copies: the same numbers)
-            rows: list[float] = []
-            for m in motions:
-                rows += (*m.position.tolist(), *m.velocity.tolist())
-            return np.array(rows, dtype=float).reshape(len(motions), 4)
-        except (AttributeError, ValueError):  # a motion's position or velocity of another kind
-            states = np.empty((len(motions), 4))
-            states[:, :2] = [m.position for m in motions]
-            states[:, 2:] = [m.velocity for m in motions]
-            return states
+        states = np.empty((len(motions), 4))
+        states[:, :2] = [m.position for m in motions]
+        states[:, 2:] = [m.velocity for m in motions]
+        return states
 
     def capability_ok(self, kind: FailureKind) -> np.ndarray:
         """``(m,)`` bool: whose sensor (``kind="sensing"``) or radio (``"comm"``) works now."""
