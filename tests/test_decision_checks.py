@@ -223,3 +223,30 @@ def test_small_team_velocity_bounds_are_numpys_bit_for_bit() -> None:
     assert config._bounds_floats(positions.tolist()) is None
     with_nan = config.velocity_bounds(list(range(len(positions))), positions)
     assert np.isnan(with_nan[0][0, 0]) and np.isnan(with_nan[1][0, 0])
+
+
+def test_small_team_clip_to_the_bounds_is_numpys_bit_for_bit() -> None:
+    # The learning environment clips a small team's finite actions in Python floats: NumPy's
+    # np.minimum(np.maximum(u, lower), upper) bytes, ties and ±0 included.
+    import dataclasses
+
+    from resilient_tracking.build import team_config
+    from resilient_tracking.team_config import SMALL_TEAM
+
+    base = team_config(shipped("sensing-temp"))
+    rng = np.random.default_rng(8)
+    for trial in range(2000):
+        m = 1 + trial % SMALL_TEAM
+        config = dataclasses.replace(base, u_max=rng.choice([0.0, 0.5, 1.0, 2.0], size=m))
+        positions = rng.uniform(-5.0, 5.0, size=(m, 2))
+        positions.flat[rng.integers(2 * m)] = rng.choice([0.0, -0.0, 4.0, -4.0, 3.0])
+        lower, upper = config._bounds(*config._team_umax, positions)
+        u = rng.uniform(-3.0, 3.0, size=(m, 2))
+        ties = rng.random((m, 2))
+        u[ties < 0.2], u[ties > 0.8] = lower[ties < 0.2], upper[ties > 0.8]  # on the bounds
+        u[(ties > 0.45) & (ties < 0.55)] = rng.choice([0.0, -0.0])
+        clipped = config.clip_floats(positions.tolist(), u.ravel().tolist())
+        assert clipped is not None
+        numpys = np.minimum(np.maximum(u, lower), upper)
+        assert np.array(clipped).reshape(m, 2).tobytes() == numpys.tobytes()
+    assert config.clip_floats(np.full((SMALL_TEAM + 1, 2), 0.5).tolist(), []) is None

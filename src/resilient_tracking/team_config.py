@@ -72,10 +72,37 @@ class TeamConfig:
         upper = np.maximum(np.minimum(umax, to_upper), zero)
         return lower, upper
 
+    def clip_floats(self, rows: list[list[float]], controls: list[float]) -> list[float] | None:
+        """The whole team's finite ``controls`` (flat: ``[ux0, uy0, ux1, …]``) clipped to
+        :meth:`velocity_bounds` at the positions ``rows``, ``np.minimum(np.maximum(u, lower),
+        upper)``, in Python floats for a small team: the same comparisons per component, a tie
+        giving the bound as NumPy's do (±0). ``None`` when :meth:`velocity_bounds` would take
+        NumPy's path (then clip with its arrays)."""
+        if len(rows) > SMALL_TEAM:
+            return None
+        bounds = self._flat_bounds(rows)
+        if bounds is None:
+            return None
+        clipped = []
+        for u, low, high in zip(controls, *bounds, strict=True):
+            u = u if u > low else low  # np.maximum(u, lower)
+            clipped.append(u if u < high else high)  # np.minimum(…, upper)
+        return clipped
+
     def _bounds_floats(self, rows: list[list[float]]) -> tuple[np.ndarray, np.ndarray] | None:
-        """:meth:`_bounds` for the whole team, a small one, in Python floats: the same IEEE
-        operations per component, ties of ``max``/``min`` giving the second operand as
-        NumPy's do (±0). ``None`` (NumPy's path, which propagates it) when a NaN turns up."""
+        """:meth:`_bounds` for the whole team, a small one, in Python floats (``None``: NumPy's
+        path, as :meth:`_flat_bounds`)."""
+        bounds = self._flat_bounds(rows)
+        if bounds is None:
+            return None
+        both = np.array(bounds[0] + bounds[1]).reshape(2, len(rows), 2)  # (one array: fewer calls)
+        return both[0], both[1]
+
+    def _flat_bounds(self, rows: list[list[float]]) -> tuple[list[float], list[float]] | None:
+        """The whole team's lower and upper bounds per component, flat, in Python floats: the
+        same IEEE operations per component as :meth:`_bounds`, ties of ``max``/``min`` giving
+        the second operand as NumPy's do (±0). ``None`` (NumPy's path, which propagates it)
+        when a NaN turns up."""
         if self._floats is None:
             return None
         (lx, ly, ux, uy), dt, umaxes = self._floats
@@ -89,8 +116,7 @@ class TeamConfig:
                 lower.append(low if low < 0.0 else 0.0)  # np.minimum(…, 0)
                 high = umax if umax < to_u else to_u  # np.minimum(umax, to_upper)
                 upper.append(high if high > 0.0 else 0.0)  # np.maximum(…, 0)
-        both = np.array(lower + upper).reshape(2, len(rows), 2)  # (one array: fewer calls)
-        return both[0], both[1]
+        return lower, upper
 
     @functools.cached_property
     def _floats(self) -> tuple[list[float], float, list[float]] | None:
