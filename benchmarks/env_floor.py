@@ -264,10 +264,9 @@ def episode_costs(steps: int, rounds: int) -> dict[str, float]:
         for k, action in enumerate([*actions[:WARM_UP], *actions]):
             if k == WARM_UP:
                 start = time.process_time()
-            bounds = stepper.team.config.velocity_bounds
-            lower, upper = bounds(list(range(len(action))), obs.positions)
+            u = np.asarray(action, dtype=float)
+            clipped = stepper.team.config.clip(u, obs.positions)  # as the environment clips
             # valid by construction (clipped, finite): not checked again, as in the environment
-            clipped = np.minimum(np.maximum(action, lower), upper)
             stepper.act(Decision(clipped, modes), valid=True)
             obs = stepper.sense()
             if stepper.steps_done >= scenario.steps or not obs.sensing_ok.any():  # as it resets

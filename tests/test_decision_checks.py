@@ -249,4 +249,8 @@ def test_small_team_clip_to_the_bounds_is_numpys_bit_for_bit() -> None:
         assert clipped is not None
         numpys = np.minimum(np.maximum(u, lower), upper)
         assert np.array(clipped).reshape(m, 2).tobytes() == numpys.tobytes()
+        assert config.clip(u, positions).tobytes() == numpys.tobytes()
     assert config.clip_floats(np.full((SMALL_TEAM + 1, 2), 0.5).tolist(), []) is None
+    u[0, 1] = np.nan  # NumPy's path, which keeps it
+    with_nan = config.clip(u, positions)
+    assert np.isnan(with_nan[0, 1]) and np.isfinite(with_nan[1:]).all()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -71,6 +72,20 @@ class TeamConfig:
         lower = np.minimum(np.maximum(negative, to_lower), zero)
         upper = np.maximum(np.minimum(umax, to_upper), zero)
         return lower, upper
+
+    def clip(self, controls: np.ndarray, positions: np.ndarray) -> np.ndarray:
+        """``controls`` clipped to :meth:`velocity_bounds` at ``positions`` (robots in order,
+        one row each), ``np.minimum(np.maximum(u, lower), upper)``: a small team's finite
+        controls in Python floats (:meth:`clip_floats`), anything else with NumPy (which
+        broadcasts, and keeps NaN)."""
+        if controls.shape == positions.shape:
+            flat = controls.ravel().tolist()
+            if math.isfinite(sum(flat)):  # (a finite sum has finite terms)
+                clipped = self.clip_floats(positions.tolist(), flat)
+                if clipped is not None:
+                    return np.array(clipped).reshape(controls.shape)
+        lower, upper = self.velocity_bounds(list(range(len(controls))), positions)
+        return np.minimum(np.maximum(controls, lower), upper)
 
     def clip_floats(self, rows: list[list[float]], controls: list[float]) -> list[float] | None:
         """The whole team's finite ``controls`` (flat: ``[ux0, uy0, ux1, …]``) clipped to

@@ -12,7 +12,6 @@ expert has ``rtrack run``'s tables bit for bit.
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -90,14 +89,14 @@ class TrackingSession:
         stepper = self.running
         obs = stepper.obs
         assert obs is not None
-        controls, finite = self._clipped(np.asarray(controls, dtype=float), obs.positions)
+        controls = stepper.team.config.clip(np.asarray(controls, dtype=float), obs.positions)
         trace_before = self.trace
         decision, valid = self._expert_decision, False
         if decision is None or not np.array_equal(controls, decision.controls):
             decision = Decision(controls, [AGENT_MODE] * len(controls))
             # clipped to the team's bounds, so valid if finite and one row per robot (else
             # the team's check holds the robots concerned, as any invalid decision)
-            valid = finite
+            valid = controls.shape == obs.positions.shape and all_finite(controls)
         stepper.act(decision, valid)
         self._expert_decision = None
         after = stepper.sense()
@@ -112,21 +111,6 @@ class TrackingSession:
         terminated = outcome.sensing == 0
         truncated = stepper.steps_done >= self.scenario.steps
         return float(self.reward(outcome)), terminated, truncated
-
-    def _clipped(self, u: np.ndarray, positions: np.ndarray) -> tuple[np.ndarray, bool]:
-        """``u`` clipped to the team's velocity bounds at ``positions`` (``np.clip``'s numbers,
-        in Python floats for a small team's finite controls), and whether the result is one
-        finite row per robot."""
-        config = self.running.team.config
-        if u.shape == positions.shape:
-            flat = u.ravel().tolist()
-            if math.isfinite(sum(flat)):
-                clipped = config.clip_floats(positions.tolist(), flat)
-                if clipped is not None:
-                    return np.array(clipped).reshape(u.shape), True
-        lower, upper = config.velocity_bounds(list(range(len(u))), positions)
-        controls = np.minimum(np.maximum(u, lower), upper)
-        return controls, controls.shape == positions.shape and all_finite(controls)
 
     # ------------------------------------------------------------------ reading
 
