@@ -15,11 +15,7 @@ def all_finite(values: np.ndarray) -> bool:
     """Whether every entry of the array ``values`` is finite: by :func:`sum_is_finite` in the
     usual case, by the elementwise test only when the sum is not finite (a NaN, an infinity,
     or finite terms that overflow)."""
-    if values.size <= SMALL:  # (sum_is_finite, inline: this runs several times a step)
-        total = sum(values.ravel().tolist())
-    else:
-        total = np.add.reduce(values, axis=None)
-    return math.isfinite(total) or bool(np.isfinite(values).all())
+    return sum_is_finite(values) or bool(np.isfinite(values).all())
 
 
 def sum_is_finite(values: np.ndarray) -> bool:
