@@ -3,7 +3,7 @@
     python -m benchmarks.moving_zones            # about a minute
     python -m benchmarks.moving_zones --quick    # a smoke run
 
-The extended team (``BEYOND_TEAM``: zone motion tracked, planning against each zone predicted to
+The ``beyond`` team (zone motion tracked, planning against each zone predicted to
 the planned step) runs closed-loop episodes with every zone known from the start (``known``),
 so each step plans against every zone:
 
@@ -28,7 +28,7 @@ import numpy as np
 from benchmarks.common import machine, save, table
 from resilient_tracking import scenarios
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.scenario.overrides import BEYOND_TEAM, every_zone_known, overridden
+from resilient_tracking.scenario.overrides import every_zone_known, overridden
 from resilient_tracking.sim.episode import run_episode
 
 
@@ -36,11 +36,11 @@ def cases(quick: bool) -> list[tuple[str, Scenario, Scenario]]:
     """(label, moving, static) pairs, the extended team with every zone known."""
     out = []
     for name in ("moving-sensing", "moving-comm-perm"):
-        moving = every_zone_known(overridden(load_scenario(scenarios.path(name)), BEYOND_TEAM))
+        moving = every_zone_known(load_scenario(scenarios.path(name)).with_team("beyond"))
         static = overridden(moving, {f"zones.{i}.motion": None for i in range(len(moving.zones))})
         out.append((f"3×3 {name}", moving, static))
     soak = load_scenario(scenarios.path("soak-20x20")).with_overrides(steps=60 if quick else 300)
-    static = every_zone_known(overridden(soak, BEYOND_TEAM))
+    static = every_zone_known(soak.with_team("beyond"))
     circling = {
         f"zones.{i}.motion": {
             "type": "circle",

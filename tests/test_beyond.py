@@ -35,7 +35,7 @@ from resilient_tracking.experiments.generator import (
     suite,
 )
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.scenario.overrides import BEYOND_TEAM
+from resilient_tracking.scenario.teams import get_team
 
 
 @pytest.fixture(scope="module")
@@ -153,14 +153,14 @@ def test_beyond_experiment_runs_three_teams_on_the_shipped_scenarios_and_the_sui
     every = tasks(exp)
     for _, variants in cases:
         teams = {v.tags["team"]: v for v in variants}
-        assert set(teams) == {"vanilla", "paper", "extended"}
-        assert teams["vanilla"].policy == "vanilla" and not teams["paper"].overrides
-        assert teams["extended"].overrides == BEYOND_TEAM
-        arm = next(t for t in every if t.variant == teams["extended"])
+        assert set(teams) == {"vanilla", "default", "beyond"}
+        assert teams["vanilla"].policy == "vanilla" and not teams["default"].overrides
+        assert teams["beyond"].overrides == get_team("beyond").settings
+        arm = next(t for t in every if t.variant == teams["beyond"])
         params = arm.scenario.policy.params_for("failure_aware")
         assert params.quarantine is True
         assert params.degradation_watch.enabled and params.zone_motion.enabled
-        paper = next(t for t in every if t.variant == teams["paper"])
+        paper = next(t for t in every if t.variant == teams["default"])
         assert paper.scenario.policy.params_for("failure_aware").quarantine is False
     seeds = Counter(t.variant.tags["part"] for t in every)
     assert seeds == {"shipped": len(BEYOND) * 3 * 10, "suite": SUITE_SIZE * 3 * BEYOND_SUITE_SEEDS}
@@ -175,7 +175,7 @@ def _rows(scenario: str, part: str, trace: list[float], mse: list[float]) -> pd.
         {
             "tag_scenario": scenario,
             "tag_part": part,
-            "tag_team": ["vanilla", "paper", "extended"] * 2,
+            "tag_team": ["vanilla", "default", "beyond"] * 2,
             "seed": [1, 1, 1, 2, 2, 2],
             "trace": trace,
             "mse": mse,
@@ -200,15 +200,15 @@ def test_beyond_targets_fail_when_the_numbers_say_so():
     )
     claims = check(exp, pd.concat([shipped, suite_rows], ignore_index=True))
     holds = {c.statement: c.holds for c in claims}
-    paper, vanilla = BEYOND_SUITE_TARGETS["paper"], BEYOND_SUITE_TARGETS["vanilla"]
+    paper, vanilla = BEYOND_SUITE_TARGETS["default"], BEYOND_SUITE_TARGETS["vanilla"]
     assert holds == {
-        "comm-spread: the extended team has a lower mean trace than the paper's team": True,
-        "comm-spread: the extended team has a lower mean mse than the paper's team": True,
-        "comm-spread: the extended team has a lower mean trace than vanilla": True,
-        "comm-spread: the extended team has a lower mean mse than vanilla": False,
-        "beyond suite: the extended team has a lower mean trace than the paper's team in at "
+        "comm-spread: the beyond team has a lower mean trace than the default team": True,
+        "comm-spread: the beyond team has a lower mean mse than the default team": True,
+        "comm-spread: the beyond team has a lower mean trace than vanilla": True,
+        "comm-spread: the beyond team has a lower mean mse than vanilla": False,
+        "beyond suite: the beyond team has a lower mean trace than the default team in at "
         f"least {paper:.0%} of the scenarios": False,  # 1 of 2
-        "beyond suite: the extended team has a lower mean trace than vanilla in at least "
+        "beyond suite: the beyond team has a lower mean trace than vanilla in at least "
         f"{vanilla:.0%} of the scenarios": True,  # 2 of 2
     }
     suite_vs_paper, suite_vs_vanilla = claims[-2].evidence, claims[-1].evidence
@@ -225,7 +225,7 @@ def test_beyond_figures_are_bands_and_snapshots_of_the_shipped_scenarios_only(tm
     bands = {job.path.name: job for job in jobs if job.path.name.startswith("bands-")}
     assert set(bands) == {f"bands-{name}.png" for name in BEYOND}
     teams = bands["bands-comm-spread.png"].args[0]
-    assert set(teams) == {"comm-spread-vanilla", "comm-spread-paper", "comm-spread-extended"}
+    assert set(teams) == {"comm-spread-vanilla", "comm-spread-default", "comm-spread-beyond"}
 
 
 def test_feature_counts_name_each_shipped_scenarios_feature():

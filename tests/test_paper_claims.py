@@ -1,7 +1,7 @@
 """The paper's headline claim on the six shipped scenarios over ten seeds, as in docs/model.md §8,
-with the paper's method as written: its one-step planner program and its constraint set
-(``PAPER_METHOD``, as ``rtrack reproduce`` runs the paper's experiments; the route program's
-claims with the default policy: test_route_program.py).
+with the paper's method as written: its one-step planner program and its constraint set (the
+``paper`` team's settings, as ``rtrack reproduce`` runs the paper's experiments; the route
+program's claims with the default team: test_route_program.py).
 
 Ten, not five: in `comm-perm` one seed of five (seed 2) lets vanilla's best cut-off robot
 report a low trace with an MSE three times the failure-aware team's, which decides a
@@ -14,7 +14,7 @@ import pytest
 
 from helpers import SCENARIOS
 from resilient_tracking.experiments.compare import compare
-from resilient_tracking.scenario.overrides import PAPER_METHOD
+from resilient_tracking.scenario.teams import get_team
 
 pytestmark = pytest.mark.slow
 
@@ -29,7 +29,7 @@ def results():
         ["vanilla", "failure_aware"],
         seeds=range(1, 11),
         jobs=2,
-        overrides=PAPER_METHOD,
+        overrides=get_team("paper").settings,
     )
 
 

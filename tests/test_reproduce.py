@@ -253,9 +253,11 @@ def test_adversarial_experiment_runs_three_teams_on_each_scenario_and_the_guard_
         lures = scenario in [s for s, _ in cases[: len(ADVERSARIAL)]] and scenario.name.startswith(
             "lure"
         )
-        assert set(teams) == {"vanilla", "paper", "extended"} | ({"guarded"} if lures else set())
-        assert teams["vanilla"].policy == "vanilla" and not teams["paper"].overrides
-        extended = arms[teams["extended"].label]
+        assert set(teams) == {"vanilla", "default", "adversarial"} | (
+            {"guarded"} if lures else set()
+        )
+        assert teams["vanilla"].policy == "vanilla" and not teams["default"].overrides
+        extended = arms[teams["adversarial"].label]
         assert extended.estimator.type == "adaptive"
         assert not extended.policy.params_for("failure_aware").lure_guard  # type: ignore[attr-defined]
         assert scenario.estimator.type == "ekf"
@@ -284,15 +286,15 @@ def test_adversarial_figures_are_bands_per_scenario_of_its_teams(tmp_path):
     teams = bands["bands-lure-comm.png"].args[0]
     assert set(teams) == {
         "lure-comm-vanilla",
-        "lure-comm-paper",
-        "lure-comm-extended",
+        "lure-comm-default",
+        "lure-comm-adversarial",
         "lure-comm-guarded",
     }
 
 
 def test_adversarial_targets_fail_when_the_numbers_say_so():
     exp = catalog()["adversarial"]
-    teams = ["vanilla", "paper", "extended", "guarded"] * 2
+    teams = ["vanilla", "default", "adversarial", "guarded"] * 2
     rows = _summary(
         tag_scenario=["lure-comm"] * 8,
         tag_team=teams,
@@ -304,11 +306,11 @@ def test_adversarial_targets_fail_when_the_numbers_say_so():
     )
     holds = {c.statement: c.holds for c in check(exp, rows)}
     assert holds == {
-        "lure-comm: the extended team has a lower mean trace than the paper's team": True,
-        "lure-comm: the extended team has a lower mean mse than the paper's team": True,
-        "lure-comm: the extended team has a lower mean trace than vanilla": True,
-        "lure-comm: the extended team has a lower mean mse than vanilla": False,
-        "lure-comm: with the lure guard, permanent losses per run at most 50% of the paper "
+        "lure-comm: the adversarial team has a lower mean trace than the default team": True,
+        "lure-comm: the adversarial team has a lower mean mse than the default team": True,
+        "lure-comm: the adversarial team has a lower mean trace than vanilla": True,
+        "lure-comm: the adversarial team has a lower mean mse than vanilla": False,
+        "lure-comm: with the lure guard, permanent losses per run at most 50% of the default "
         "team's, at a trace at most 1.2× its": True,
     }
     evidence = [c.evidence for c in check(exp, rows)]
@@ -317,7 +319,7 @@ def test_adversarial_targets_fail_when_the_numbers_say_so():
 
 def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_wins():
     exp = catalog()["adversarial"]
-    teams = ["vanilla", "paper", "extended"]
+    teams = ["vanilla", "default", "adversarial"]
     # g00: extended below both; g01: equal to the paper's team, below vanilla
     rows = _summary(
         tag_scenario=["g00"] * 3 + ["g01"] * 3,
@@ -331,13 +333,13 @@ def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_wins():
     )
     holds = {c.statement: c.holds for c in check(exp, rows)}
     assert holds == {
-        "adversarial suite: the extended team has a lower mean trace than the paper's team in "
+        "adversarial suite: the adversarial team has a lower mean trace than the default team in "
         "at least 85% of the scenarios": False,  # 1 of 2
-        "adversarial suite: the extended team has a lower mean trace than vanilla in at least "
+        "adversarial suite: the adversarial team has a lower mean trace than vanilla in at least "
         "85% of the scenarios": True,  # 2 of 2
-        "adversarial suite: the extended team has a lower mean mse than the paper's team in "
+        "adversarial suite: the adversarial team has a lower mean mse than the default team in "
         "at least 85% of the scenarios": True,
-        "adversarial suite: the extended team has a lower mean mse than vanilla in at least "
+        "adversarial suite: the adversarial team has a lower mean mse than vanilla in at least "
         "85% of the scenarios": True,
     }
 

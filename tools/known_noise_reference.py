@@ -36,7 +36,7 @@ from resilient_tracking.cli import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.experiments.generator import stored_beyond_suite
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.scenario.overrides import BEYOND_TEAM, every_zone_known, overridden
+from resilient_tracking.scenario.overrides import every_zone_known, overridden
 from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world.degradation import Degradations
 
@@ -61,7 +61,7 @@ def _oracle(watch: DegradationWatch, truth: Degradations) -> Any:
 def run(scenario: Scenario, team: str, seed: int, known_zones: bool) -> dict[str, float]:
     """One episode of ``team``; its mean trace, MSE and position NEES."""
     if team == "extended":
-        scenario = overridden(scenario, BEYOND_TEAM)
+        scenario = scenario.with_team("beyond")
     elif team == "known noise":
         scenario = overridden(scenario, {WATCH: True})
     if known_zones:

@@ -1,11 +1,11 @@
 """Reference measurement: what the lure guard costs where targets are not all lures
 (docs/adversarial.md, *The lure guard*).
 
-Runs the paper's team, the extended team (``ADVERSARIAL_TEAM``) and the extended team with the
-lure guard (``GUARDED_TEAM``) on the stored adversarial suite, whose targets evade, lure or keep
+Runs the teams ``default``, ``adversarial`` and ``guarded`` (the adversarial team with the
+lure guard) on the stored adversarial suite, whose targets evade, lure or keep
 to their lanes, and prints each team's mean trace and MSE and the share of scenarios in which
 it has the lower trace, and the lower MSE, than the paper's team: the numbers that decide
-whether the guard belongs in the extended team (the suite's target is 85 %).
+whether the guard belongs in the adversarial team (the suite's target is 85 %).
 
     python tools/lure_guard_suite_reference.py            # the 30 scenarios, seed 1 each
 """
@@ -21,13 +21,14 @@ from joblib import Parallel, delayed
 
 from resilient_tracking.experiments.catalog import ADVERSARIAL_SUITE_SIZE
 from resilient_tracking.experiments.generator import stored_adversarial_suite
-from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, GUARDED_TEAM, overridden
+from resilient_tracking.scenario.overrides import overridden
+from resilient_tracking.scenario.teams import get_team
 from resilient_tracking.sim.episode import run_episode
 
 TEAMS: dict[str, dict[str, Any]] = {
-    "paper": {},
-    "extended": ADVERSARIAL_TEAM,
-    "extended with the lure guard": GUARDED_TEAM,
+    "default": {},
+    "adversarial": dict(get_team("adversarial").settings),
+    "guarded": dict(get_team("guarded").settings),
 }
 
 

@@ -32,7 +32,8 @@ from resilient_tracking.cli import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.policies.suspects import SuspectWatch
 from resilient_tracking.scenario import load_scenario
-from resilient_tracking.scenario.overrides import ADVERSARIAL_TEAM, overridden
+from resilient_tracking.scenario.overrides import overridden
+from resilient_tracking.scenario.teams import get_team
 from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world import World
 
@@ -78,7 +79,7 @@ def run(
     name: str, seed: int, oracle: str, standoff: float | None, latency: float = 0.0
 ) -> dict[str, float]:
     """One episode; its mean trace, MSE and permanent losses."""
-    settings: dict[str, Any] = dict(ADVERSARIAL_TEAM)
+    settings: dict[str, Any] = dict(get_team("adversarial").settings)
     if standoff is not None:
         settings |= {GUARD: True, STANDOFF: standoff}
     scenario = overridden(load_scenario(scenarios.resolve(name)), settings)

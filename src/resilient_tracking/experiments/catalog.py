@@ -31,13 +31,8 @@ from resilient_tracking.experiments.generator import (
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.runs.manifest import code_digest
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.scenario.overrides import (
-    ADVERSARIAL_TEAM,
-    BEYOND_TEAM,
-    GUARDED_TEAM,
-    PAPER_METHOD,
-    apply_overrides,
-)
+from resilient_tracking.scenario.overrides import apply_overrides
+from resilient_tracking.scenario.teams import get_team
 
 
 def default_scenario_dir() -> Path:
@@ -266,17 +261,16 @@ def adversarial_cases(
     """The shipped adversarial scenarios (tagged ``part: shipped``), then the first
     ``suite_size`` scenarios of the stored adversarial suite (of those with at most
     ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
-    ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
-    the team extended for adversarial targets (:data:`ADVERSARIAL_TEAM`); a shipped scenario
-    whose targets lure has a fourth, the extended team with the lure guard
-    (:data:`GUARDED_TEAM`). Arms are tagged with the scenario and the team (``vanilla``,
-    ``paper``, ``extended``, ``guarded``)."""
+    ``suite_seeds`` seeds), each with three arms: the teams ``vanilla``, ``default`` and
+    ``adversarial`` (the adaptive estimator); a shipped scenario whose targets lure has a
+    fourth, the team ``guarded`` (with the lure guard). Arms are tagged with the scenario and
+    the team."""
     shipped = _shipped(names, scenario_dir)
     generated = _small(stored_adversarial_suite(), max_pairs)[:suite_size]
-    cases = _with_three_teams(shipped, generated, ADVERSARIAL_TEAM, suite_seeds)
-    # where a shipped scenario's targets lure, a fourth arm: the extended team with the lure guard
+    cases = _with_three_teams(shipped, generated, "adversarial", suite_seeds)
+    # where a shipped scenario's targets lure, a fourth arm: the team with the lure guard
     return [
-        (s, arms + (_arm(s.name, "guarded", "failure_aware", GUARDED_TEAM, "shipped"),))
+        (s, arms + (_arm(s.name, "guarded", "shipped"),))
         if arms[0].tags["part"] == "shipped" and _lures(s)
         else (s, arms)
         for s, arms in cases
@@ -302,34 +296,29 @@ BEYOND_SUITE_SEEDS = 2
 
 
 def _three_teams(
-    name: str, extended: Mapping[str, Any], part: str, max_seeds: int | None = None
+    name: str, extended: str, part: str, max_seeds: int | None = None
 ) -> tuple[Variant, ...]:
-    """Vanilla, the paper's failure-aware team and the failure-aware team with ``extended``,
-    labelled ``<name>-<team>`` and tagged with the scenario, the team and ``part``."""
-    arms: tuple[tuple[str, str, Mapping[str, Any]], ...] = (
-        ("vanilla", "vanilla", {}),
-        ("paper", "failure_aware", {}),
-        ("extended", "failure_aware", extended),
-    )
-    return tuple(
-        _arm(name, team, policy, overrides, part, max_seeds) for team, policy, overrides in arms
-    )
+    """The teams ``vanilla``, ``default`` and ``extended`` on scenario ``name``, labelled
+    ``<name>-<team>`` and tagged with the scenario, the team and ``part``."""
+    return tuple(_arm(name, team, part, max_seeds) for team in ("vanilla", "default", extended))
 
 
-def _arm(
-    name: str,
-    team: str,
-    policy: str,
-    overrides: Mapping[str, Any],
-    part: str,
-    max_seeds: int | None = None,
-) -> Variant:
+def team_arm(team: str, label: str | None = None, **tags: Any) -> Variant:
+    """The arm of the named team ``team``: its policy and its settings (which override the
+    scenario's, as the catalogue's arms always do), labelled ``label`` (default: the team)."""
+    settings = dict(get_team(team).settings)
+    policy = settings.pop("policy.name", "failure_aware")
+    return Variant(label or team, policy, settings, tags={"team": team, **tags})
+
+
+def _arm(name: str, team: str, part: str, max_seeds: int | None = None) -> Variant:
     """The arm of ``team`` on scenario ``name``, labelled ``<name>-<team>`` and tagged with the
     scenario, the team and ``part``."""
+    arm = team_arm(team, f"{name}-{team}")
     return Variant(
-        f"{name}-{team}",
-        policy,
-        dict(overrides),
+        arm.label,
+        arm.policy,
+        dict(arm.overrides),
         tags={"scenario": name, "team": team, "part": part},
         max_seeds=max_seeds,
     )
@@ -345,11 +334,11 @@ def beyond_cases(
     """The shipped scenarios of the features beyond the paper (tagged ``part: shipped``), then
     the first ``suite_size`` scenarios of the stored beyond suite (of those with at most
     ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
-    ``suite_seeds`` seeds), each with three arms: vanilla, the paper's failure-aware team and
-    the extended team (:data:`BEYOND_TEAM`)."""
+    ``suite_seeds`` seeds), each with three arms: the teams ``vanilla``, ``default`` and
+    ``beyond``."""
     shipped = _shipped(names, scenario_dir)
     generated = _small(stored_beyond_suite(), max_pairs)[:suite_size]
-    return _with_three_teams(shipped, generated, BEYOND_TEAM, suite_seeds)
+    return _with_three_teams(shipped, generated, "beyond", suite_seeds)
 
 
 def _shipped(names: Iterable[str], scenario_dir: Path | None) -> list[Scenario]:
@@ -369,7 +358,7 @@ def _small(scenarios: list[Scenario], max_pairs: int | None) -> list[Scenario]:
 def _with_three_teams(
     shipped: list[Scenario],
     generated: list[Scenario],
-    extended: Mapping[str, Any],
+    extended: str,
     suite_seeds: int,
 ) -> list[tuple[Scenario, tuple[Variant, ...]]]:
     """Each shipped scenario (``part: shipped``) and each generated one (``part: suite``, on its
@@ -387,11 +376,11 @@ ROUTE_SUFFIX = "-route"
 
 def on_program(experiment: Experiment, program: str) -> Experiment:
     """``experiment`` with every arm on one planner program; the route program's copy is named
-    with :data:`ROUTE_SUFFIX` and runs the same seeds. On the one-step program the
-    failure-aware policy keeps the paper's constraint set too (:data:`PAPER_METHOD`), so it is
+    with :data:`ROUTE_SUFFIX` and runs the same seeds. On the one-step program every arm is the
+    ``paper`` team's (its program, constraint set and settings), so the failure-aware arms run
     the paper's method as written. (SOG plans with its own program, so its arms are the same in
     both.)"""
-    settings = PAPER_METHOD if program == "one_step" else {"planner.program": program}
+    settings = get_team("paper").settings if program == "one_step" else {"planner.program": program}
     variants = tuple(replace(v, overrides={**v.overrides, **settings}) for v in experiment.variants)
     if program == "one_step":
         return replace(
@@ -467,9 +456,9 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             seeds=2 if quick else 10,
             kind="adversarial",
             description=(
-                "targets that evade or lure (docs/model.md §1): vanilla, the paper's "
-                "failure-aware team and the team extended for them (the adaptive estimator; "
-                "where targets lure, with the lure guard as a fourth arm), on "
+                "targets that evade or lure (docs/model.md §1): the teams vanilla, default and "
+                "adversarial (the adaptive estimator; where targets lure, the team guarded, "
+                "with the lure guard, as a fourth arm), on "
                 + ", ".join(f"`{n}`" for n in ADVERSARIAL)
                 + f", and on {QUICK_SUITE if quick else ADVERSARIAL_SUITE_SIZE} scenarios of the "
                 f"stored adversarial suite{' with small teams' if quick else ''} "
@@ -486,8 +475,8 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             seeds=2 if quick else 10,
             kind="beyond",
             description=(
-                "the world's features beyond the paper (docs/beyond.md): vanilla, the paper's "
-                "failure-aware team and the extended team (BEYOND_TEAM) on "
+                "the world's features beyond the paper (docs/beyond.md): the teams vanilla, "
+                "default and beyond on "
                 + ", ".join(f"`{n}`" for n in BEYOND)
                 + f", and on {QUICK_SUITE if quick else SUITE_SIZE} scenarios of the stored "
                 f"beyond suite{' with small teams' if quick else ''} "

@@ -173,7 +173,7 @@ def generalization_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     return out
 
 
-#: With lures, the guarded team's permanent losses per run at most this share of the paper
+#: With lures, the guarded team's permanent losses per run at most this share of the default
 #: team's, at a time-mean trace at most this factor of its (docs/model.md §8).
 LURE_LOSS_SHARE = 0.5
 LURE_TRACE_FACTOR = 1.2
@@ -197,21 +197,22 @@ def _paired(s: pd.DataFrame, metric: str, better: str, worse: str) -> tuple[floa
     )
 
 
-#: The two teams the extended team is compared with, and how claims name them.
-OTHER_TEAMS = (("paper", "the paper's team"), ("vanilla", "vanilla"))
+#: The two teams an experiment's extended team (the team named after the experiment's kind:
+#: ``adversarial``, ``beyond``) is compared with, and how claims name them.
+OTHER_TEAMS = (("default", "the default team"), ("vanilla", "vanilla"))
 
 
 def _extended_lower(exp: Experiment, name: str, rows: pd.DataFrame) -> list[Claim]:
-    """Per scenario: the extended team has a lower mean trace and MSE than each other team,
-    with the 95 % interval of the per-seed differences."""
+    """Per scenario: the experiment's extended team has a lower mean trace and MSE than each
+    other team, with the 95 % interval of the per-seed differences."""
     out = []
     for other, who in OTHER_TEAMS:
         for metric in ("trace", "mse"):
-            a, b, evidence = _paired(rows, metric, "extended", other)
+            a, b, evidence = _paired(rows, metric, exp.kind, other)
             out.append(
                 Claim(
                     exp.name,
-                    f"{name}: the extended team has a lower mean {metric} than {who}",
+                    f"{name}: the {exp.kind} team has a lower mean {metric} than {who}",
                     a < b,
                     evidence,
                 )
@@ -221,9 +222,9 @@ def _extended_lower(exp: Experiment, name: str, rows: pd.DataFrame) -> list[Clai
 
 def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     """Targets of the ``adversarial`` experiment, per shipped scenario (``tag_part``
-    ``shipped``): the extended team has a lower mean trace and MSE than the paper's team and
-    than vanilla; with lures, the guarded team's (the extended team with the lure guard)
-    permanent losses per run are at most :data:`LURE_LOSS_SHARE` of the paper team's at a trace
+    ``shipped``): the ``adversarial`` team has a lower mean trace and MSE than the default team
+    and than vanilla; with lures, the guarded team's (the adversarial team with the lure guard)
+    permanent losses per run are at most :data:`LURE_LOSS_SHARE` of the default team's at a trace
     at most :data:`LURE_TRACE_FACTOR` times its. On the stored
     adversarial suite (``suite``) it has the lower mean trace in at least
     :data:`ADVERSARIAL_SUITE_TARGET` of the scenarios."""
@@ -234,19 +235,19 @@ def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
         if (rows.tag_team == "guarded").any():  # targets that lure: the guard's losses
             losses = rows.losses_known_permanent + rows.losses_unknown_permanent
             guarded = float(losses[rows.tag_team == "guarded"].mean())
-            paper = float(losses[rows.tag_team == "paper"].mean())
+            default = float(losses[rows.tag_team == "default"].mean())
             trace_guarded = _mean(rows, "trace", tag_team="guarded")
-            trace_paper = _mean(rows, "trace", tag_team="paper")
+            trace_default = _mean(rows, "trace", tag_team="default")
             out.append(
                 Claim(
                     exp.name,
                     f"{name}: with the lure guard, permanent losses per run at most "
-                    f"{LURE_LOSS_SHARE:.0%} of the paper team's, at a trace at most "
+                    f"{LURE_LOSS_SHARE:.0%} of the default team's, at a trace at most "
                     f"{LURE_TRACE_FACTOR}× its",
-                    guarded <= LURE_LOSS_SHARE * paper
-                    and trace_guarded <= LURE_TRACE_FACTOR * trace_paper,
-                    f"losses {guarded:.2f} vs {paper:.2f} per run; trace {trace_guarded:.4g} vs "
-                    f"{trace_paper:.4g}",
+                    guarded <= LURE_LOSS_SHARE * default
+                    and trace_guarded <= LURE_TRACE_FACTOR * trace_default,
+                    f"losses {guarded:.2f} vs {default:.2f} per run; trace {trace_guarded:.4g} vs "
+                    f"{trace_default:.4g}",
                 )
             )
     suite = s[part == "suite"]
@@ -256,9 +257,9 @@ def adversarial_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
 
 
 #: The share of the stored adversarial suite's scenarios in which the extended team is to have
-#: the lower mean trace, and the lower mean MSE, than the paper's team and than vanilla
+#: the lower mean trace, and the lower mean MSE, than the default team and than vanilla
 #: (docs/adversarial.md).
-ADVERSARIAL_SUITE_TARGET = {"paper": 0.85, "vanilla": 0.85}
+ADVERSARIAL_SUITE_TARGET = {"default": 0.85, "vanilla": 0.85}
 
 
 def _suite_claims(
@@ -274,12 +275,12 @@ def _suite_claims(
         return []
     out = []
     for other, who in OTHER_TEAMS:
-        wins, evidence = suite_wins(suite, other, metric)
+        wins, evidence = suite_wins(suite, exp.kind, other, metric)
         target = targets[other]
         out.append(
             Claim(
                 exp.name,
-                f"{label} suite: the extended team has a lower mean {metric} than {who} in "
+                f"{label} suite: the {exp.kind} team has a lower mean {metric} than {who} in "
                 f"at least {target:.0%} of the scenarios",
                 wins.n > 0 and wins.rate >= target,
                 evidence,
@@ -289,19 +290,21 @@ def _suite_claims(
 
 
 #: The targets set for the stored beyond suite (docs/beyond.md): shares of its scenarios in
-#: which the extended team has the lower mean trace than the paper's team and than vanilla.
-BEYOND_SUITE_TARGETS = {"paper": 0.85, "vanilla": 0.9}
+#: which the extended team has the lower mean trace than the default team and than vanilla.
+BEYOND_SUITE_TARGETS = {"default": 0.85, "vanilla": 0.9}
 
 
-def suite_wins(suite: pd.DataFrame, other: str, metric: str = "trace") -> tuple[Proportion, str]:
+def suite_wins(
+    suite: pd.DataFrame, extended: str, other: str, metric: str = "trace"
+) -> tuple[Proportion, str]:
     """Scenarios of a suite in which the extended team's mean ``metric`` over its seeds is
     below ``other``'s, with the Wilson interval, and as evidence also the ties and the 95 %
     interval of the per-scenario differences."""
     means = suite.pivot_table(index="tag_scenario", columns="tag_team", values=metric)
-    if "extended" not in means or other not in means:
+    if extended not in means or other not in means:
         return wilson(0, 0), "no paired runs"
-    pair = means[["extended", other]].dropna()
-    diff = (pair["extended"] - pair[other]).to_numpy()
+    pair = means[[extended, other]].dropna()
+    diff = (pair[extended] - pair[other]).to_numpy()
     wins = wilson(int((diff < 0).sum()), len(diff))
     if not len(diff):
         return wins, "no paired runs"
@@ -314,7 +317,7 @@ def suite_wins(suite: pd.DataFrame, other: str, metric: str = "trace") -> tuple[
 
 def beyond_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:
     """Targets of the ``beyond`` experiment: per shipped scenario (``tag_part`` ``shipped``),
-    the extended team has a lower mean trace and MSE than the paper's team and than vanilla;
+    the ``beyond`` team has a lower mean trace and MSE than the default team and than vanilla;
     on the stored beyond suite (``suite``) it has the lower mean trace in at least
     :data:`BEYOND_SUITE_TARGETS` of the scenarios."""
     part = s["tag_part"] if "tag_part" in s else pd.Series("shipped", index=s.index)

@@ -128,8 +128,8 @@ def figure_jobs(
             groups = {k: v for k, v in runs.items() if _scenario_of(k) == name}
             jobs.append(
                 FigureJob(
-                    f"{name}: vanilla, the paper's team and the extended team"
-                    + (" (and with the lure guard)" if f"{name}-guarded" in groups else "")
+                    f"{name}: the teams vanilla, default and {exp.kind}"
+                    + (" (and guarded)" if f"{name}-guarded" in groups else "")
                     + ", mean ± 1 std over seeds",
                     out / f"bands-{name}.png",
                     plot_bands,

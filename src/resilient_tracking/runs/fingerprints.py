@@ -28,7 +28,6 @@ import pandas as pd
 from resilient_tracking import scenarios
 from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import Scenario, load_scenario
-from resilient_tracking.scenario.overrides import PAPER_METHOD, overridden
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.sim.kernels import PINNED_ENV, pinned
 
@@ -63,9 +62,9 @@ def table_hash(df: pd.DataFrame) -> str:
 
 
 def fingerprinted_scenario(name: str) -> Scenario:
-    """Shipped scenario ``name`` with the paper's method as written (its one-step program and
-    constraint set, :data:`~resilient_tracking.scenario.overrides.PAPER_METHOD`)."""
-    return overridden(load_scenario(scenarios.path(name)), PAPER_METHOD)
+    """Shipped scenario ``name`` run by the ``paper`` team: the paper's method as written (its
+    one-step program and constraint set)."""
+    return load_scenario(scenarios.path(name)).with_team("paper")
 
 
 def fingerprints(runs: Sequence[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:

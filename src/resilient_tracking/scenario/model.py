@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Annotated, Any
 
 from pydantic import (
     Field,
+    PrivateAttr,
     ValidationError,
+    ValidatorFunctionWrapHandler,
+    field_validator,
+    model_validator,
 )
 
 from resilient_tracking.models.sensor import SENSORS, RangeBearingSpec
@@ -28,6 +33,7 @@ from resilient_tracking.scenario.effects import SensingDegrade
 from resilient_tracking.scenario.errors import ScenarioError, field_problems
 from resilient_tracking.scenario.paths import set_paths
 from resilient_tracking.scenario.policies import PolicySpec
+from resilient_tracking.scenario.teams import DEFAULT_TEAM, get_team, with_team_settings
 from resilient_tracking.scenario.world_specs import (
     Circle,
     Estimator,
@@ -93,6 +99,14 @@ class Scenario(Strict):
     """A whole scenario file: team, targets, zones, policy and planner (docs/scenario-format.md)."""
 
     name: str = Field("scenario", description="Label used in output folders and plots.")
+    team: str = Field(
+        DEFAULT_TEAM,
+        description=(
+            "Named team (rtrack teams lists them): fills in every setting the file leaves"
+            " unsaid; the file's own settings override the team's (rtrack run --team"
+            " overrides it)."
+        ),
+    )
     description: str = Field("", description="Free text.")
     seed: int = Field(
         0,
@@ -138,6 +152,46 @@ class Scenario(Strict):
         PolicySpec(), description="The policy the team uses and its parameters."
     )
     planner: PlannerSpec = Field(PlannerSpec(), description="How the league problems are solved.")
+
+    #: the mapping the scenario was validated from, before its team's settings were filled in
+    _own: dict[str, Any] | None = PrivateAttr(None)
+
+    @field_validator("team")
+    @classmethod
+    def _known_team(cls, name: str) -> str:
+        try:
+            get_team(name)
+        except LookupError as err:
+            raise ValueError(str(err)) from None
+        return name
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _fill_in_team(cls, data: Any, handler: ValidatorFunctionWrapHandler) -> Scenario:
+        """The team's settings fill in what the mapping leaves unsaid, before validation."""
+        if not isinstance(data, dict):
+            return handler(data)  # type: ignore[no-any-return]
+        try:
+            team = get_team(data.get("team", DEFAULT_TEAM))
+        except LookupError:
+            return handler(data)  # type: ignore[no-any-return]  # the field names the problem
+        scenario: Scenario = handler(with_team_settings(data, team))
+        scenario._own = copy.deepcopy(data)
+        return scenario
+
+    def own_data(self) -> dict[str, Any]:
+        """A copy of the mapping this scenario says itself, without what its team fills in:
+        what :meth:`with_team`, :meth:`with_overrides` and :func:`~.overrides.overridden` change
+        (so a scenario changed by them keeps following its team)."""
+        own = self._own if self._own is not None else self.model_dump(exclude_unset=True)
+        return copy.deepcopy(own)
+
+    def with_team(self, team: str) -> Scenario:
+        """This scenario run by the team called ``team``: the team's settings fill in what the
+        scenario's own mapping leaves unsaid."""
+        data = self.own_data()
+        data["team"] = team
+        return Scenario.parse(data, f"{self.name} (team {team})")
 
     def problems(self) -> list[str]:
         """Cross-field problems pydantic cannot see, each naming its field."""
@@ -216,6 +270,6 @@ class Scenario(Strict):
     def with_overrides(self, **changes: Any) -> Scenario:
         """A validated copy with top-level fields replaced (``seed``, ``steps``, ``policy``…);
         :func:`~.overrides.overridden` changes fields by dotted path."""
-        data = self.model_dump()
+        data = self.own_data()
         set_paths(data, changes, f"{self.name} (overridden)")
         return Scenario.parse(data, f"{self.name} (overridden)")

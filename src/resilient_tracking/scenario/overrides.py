@@ -14,48 +14,7 @@ from typing import Any
 from resilient_tracking.scenario.model import Scenario
 from resilient_tracking.scenario.paths import set_path, set_paths
 
-__all__ = [
-    "ADVERSARIAL_TEAM",
-    "GUARDED_TEAM",
-    "BEYOND_TEAM",
-    "every_zone_known",
-    "PAPER_METHOD",
-    "apply_overrides",
-    "overridden",
-    "set_path",
-]
-
-#: The paper's method as written, by dotted path: its one-step program (eq. 9) and its
-#: constraint set (eqs. 7c, 7d; none of the failure-aware policy's hazard guard), with the
-#: provisional comm zone of a silent teammate at the spread the paper's experiments were
-#: reproduced with (docs/model.md §10.1).
-PAPER_METHOD: dict[str, Any] = {
-    "planner.program": "one_step",
-    "policy.failure_aware.hazard_guard": False,
-    "policy.failure_aware.silence_std": 0.3,
-}
-
-#: The failure-aware team extended for adversarial targets (docs/model.md §4.2), by dotted path:
-#: the adaptive estimator, which learns each target's process noise. Without these settings the
-#: team is the paper's.
-ADVERSARIAL_TEAM: dict[str, Any] = {
-    "estimator.type": "adaptive",
-}
-
-#: The extended team with the lure guard on as well (docs/model.md §6.1): the defence for
-#: scenarios where targets are expected to lure. Not part of the extended team, as it costs
-#: trace wherever nothing lures (docs/adversarial.md).
-GUARDED_TEAM: dict[str, Any] = ADVERSARIAL_TEAM | {"policy.failure_aware.lure_guard": True}
-
-#: The failure-aware team extended for the world's features beyond the paper (docs/beyond.md),
-#: by dotted path: every option of the failure-aware policy for them, in one place. Without
-#: these settings the team is the paper's.
-BEYOND_TEAM: dict[str, Any] = {
-    "policy.failure_aware.quarantine": True,
-    "policy.failure_aware.signal_turns": 1.0,
-    "policy.failure_aware.degradation_watch.enabled": True,
-    "policy.failure_aware.zone_motion.enabled": True,
-}
+__all__ = ["apply_overrides", "every_zone_known", "overridden", "set_path"]
 
 
 def apply_overrides(data: dict[str, Any], overrides: Mapping[str, Any], source: str) -> Scenario:
@@ -79,4 +38,4 @@ def overridden(
     if not overrides:
         return scenario
     label = source or f"{scenario.name} (overridden)"
-    return apply_overrides(scenario.model_dump(), overrides, label)
+    return apply_overrides(scenario.own_data(), overrides, label)

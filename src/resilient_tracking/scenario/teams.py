@@ -1,0 +1,145 @@
+"""Named teams: a name for a complete configuration of the team, chosen in one word.
+
+A scenario says which team runs it (``team: paper``; ``rtrack run --team paper`` on the command
+line); the team fills in every setting the scenario file leaves unsaid, so a scenario's own
+settings still override its team's. ``default`` is what runs when nothing is said.
+
+Each team is a set of settings by dotted path (:mod:`~resilient_tracking.scenario.paths`), so
+``rtrack teams`` can list exactly what each fixes. Which team to pick is in the README and
+docs/model.md §6.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from resilient_tracking.scenario.paths import set_path
+
+__all__ = ["DEFAULT_TEAM", "NamedTeam", "TEAMS", "UnknownTeam", "get_team", "with_team_settings"]
+
+
+@dataclass(frozen=True)
+class NamedTeam:
+    """A team by name: a one-line summary and the settings it fixes, by dotted path."""
+
+    name: str
+    summary: str
+    settings: Mapping[str, Any] = field(default_factory=dict)
+
+
+class UnknownTeam(LookupError):
+    """A team name that is not one of :data:`TEAMS`; the message lists the names."""
+
+    def __str__(self) -> str:  # LookupError would quote the message
+        return str(self.args[0])
+
+
+#: The team that runs when a scenario names none.
+DEFAULT_TEAM = "default"
+
+#: The paper's method as written: its one-step program (eq. 9) and its constraint set (eqs. 7c,
+#: 7d), none of the guards beyond the paper, with the provisional comm zone of a silent
+#: teammate at the spread the paper's experiments are reproduced with (docs/model.md §10.1).
+_PAPER = {
+    "planner.program": "one_step",
+    "policy.failure_aware.hazard_guard": False,
+    "policy.failure_aware.silence_std": 0.3,
+}
+
+#: The adaptive estimator, which learns each target's process noise (docs/model.md §4.2).
+_ADVERSARIAL = {"estimator.type": "adaptive"}
+
+#: Every mechanism for the world's features beyond the paper (docs/beyond.md).
+_BEYOND = {
+    "policy.failure_aware.quarantine": True,
+    "policy.failure_aware.signal_turns": 1.0,
+    "policy.failure_aware.degradation_watch.enabled": True,
+    "policy.failure_aware.zone_motion.enabled": True,
+}
+
+#: Every named team, in the order ``rtrack teams`` lists them.
+TEAMS: dict[str, NamedTeam] = {
+    team.name: team
+    for team in (
+        NamedTeam(
+            "default",
+            "the failure-aware team that runs when nothing is said: the paper's Algorithm 1"
+            " on the route program, with the default guards",
+        ),
+        NamedTeam(
+            "paper",
+            "the paper's method exactly: one-step program, the paper's constraint set and"
+            " settings (rtrack reproduce's team for the paper's experiments)",
+            _PAPER,
+        ),
+        NamedTeam(
+            "adversarial",
+            "the default team with the adaptive estimator, for evasive or erratic targets",
+            _ADVERSARIAL,
+        ),
+        NamedTeam(
+            "guarded",
+            "the adversarial team with the lure guard, where targets may lure robots into danger",
+            _ADVERSARIAL | {"policy.failure_aware.lure_guard": True},
+        ),
+        NamedTeam(
+            "beyond",
+            "the default team with quarantine, signal turns, the degradation watch and zone"
+            " motion, for moving, degrading and spreading zones",
+            _BEYOND,
+        ),
+        NamedTeam(
+            "vanilla",
+            "the paper's baseline: fixed weights, no zone knowledge, no chance constraints",
+            {"policy.name": "vanilla"},
+        ),
+        NamedTeam(
+            "sog",
+            "the risk-aware baseline after Mayya et al. (safety-aware observability Gramian)",
+            {"policy.name": "sog"},
+        ),
+    )
+}
+
+
+def get_team(name: str) -> NamedTeam:
+    """The team called ``name``; :class:`UnknownTeam` lists the names otherwise."""
+    try:
+        return TEAMS[name]
+    except (KeyError, TypeError):
+        raise UnknownTeam(
+            f"unknown team {name!r}; choose from {', '.join(TEAMS)} (rtrack teams lists them)"
+        ) from None
+
+
+def with_team_settings(data: dict[str, Any], team: NamedTeam) -> dict[str, Any]:
+    """A copy of the scenario mapping ``data`` with each of ``team``'s settings set where
+    ``data`` does not set that path itself (the scenario's own settings win)."""
+    out = _copy(data)
+    for path, value in team.settings.items():
+        if not _is_set(out, path):
+            set_path(out, path, _copy(value))
+    return out
+
+
+def _is_set(data: Any, path: str) -> bool:
+    """Whether the dotted ``path`` leads to a value in ``data``; a step into something that is
+    not a mapping counts as set, so that validation names the field as the file wrote it."""
+    for key in path.split("."):
+        if not isinstance(data, dict):
+            return True
+        if key not in data:
+            return False
+        data = data[key]
+    return True
+
+
+def _copy(value: Any) -> Any:
+    """A copy of nested mappings and lists (the leaves are shared)."""
+    if isinstance(value, dict):
+        return {k: _copy(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_copy(v) for v in value]
+    return value
