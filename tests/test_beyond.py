@@ -159,7 +159,8 @@ def test_beyond_experiment_runs_three_teams_on_the_shipped_scenarios_and_the_sui
         arm = next(t for t in every if t.variant == teams["beyond"])
         params = arm.scenario.policy.params_for("failure_aware")
         assert params.quarantine is True
-        assert params.degradation_watch.enabled and params.zone_motion.enabled
+        belief = arm.scenario.belief
+        assert belief.degradation_watch.enabled and belief.zone_motion.enabled
         paper = next(t for t in every if t.variant == teams["default"])
         assert paper.scenario.policy.params_for("failure_aware").quarantine is False
     seeds = Counter(t.variant.tags["part"] for t in every)

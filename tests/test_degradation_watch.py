@@ -18,18 +18,18 @@ from resilient_tracking.belief.degradation_watch import DegradationWatch, Degrad
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.needs import BeliefNeeds
+from resilient_tracking.belief.settings import BeliefSettings
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.build import make_policy
 from resilient_tracking.events import EVENT_NAMES, TRUTH_EVENTS
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.sensor import RangeBearingSensor, wrap_angle
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.episode import run_episode
+from resilient_tracking.team import Team
 
-WATCH_PARAMS = "policy.failure_aware.degradation_watch"
+WATCH_PARAMS = "belief.degradation_watch"
 WATCH = f"{WATCH_PARAMS}.enabled"
 SEEDS = range(101, 111)
 SENSOR = RangeBearingSensor()
@@ -71,12 +71,13 @@ def _watched_run(
     model = NearlyConstantVelocity(0.1, 0.05)
     chol_q = np.linalg.cholesky(model.process_noise)
     x = np.column_stack([rng.normal(0, 0.3, (3, 2)), rng.normal(0, 0.05, (3, 2))])
-    settings = DegradationWatchSettings(SENSOR, learn_zone=True)
     belief = TeamBelief(
         4,
         TargetEstimate.initial(x + rng.normal(0, [0.3, 0.3, 0.1, 0.1], x.shape), 0.3, 0.1),
         ExtendedKalmanFilter(model, SENSOR),
-        BeliefNeeds(zones=True, degradation=settings if adapt else None),
+        BeliefNeeds(zones=True),
+        settings=BeliefSettings(degradation_watch=DegradationWatchSettings(enabled=adapt)),
+        sensor=SENSOR,
     )
     events: list[Any] = []
     nees = np.empty(steps)
@@ -161,7 +162,9 @@ def test_a_known_noise_is_adopted_as_one_detection_and_then_followed() -> None:
         4,
         TargetEstimate.initial(np.zeros((3, 4)), 0.3, 0.1),
         ExtendedKalmanFilter(model, SENSOR),
-        BeliefNeeds(zones=True, degradation=DegradationWatchSettings(SENSOR)),
+        BeliefNeeds(zones=True),
+        settings=BeliefSettings(degradation_watch=DegradationWatchSettings(enabled=True)),
+        sensor=SENSOR,
     )
     watch = belief.degradation_watch
     assert watch is not None
@@ -182,7 +185,7 @@ def test_no_false_alarm_on_nominal_sensors() -> None:
 
 def test_a_detection_needs_the_threshold() -> None:
     """The same onset against a threshold no evidence reaches: never found."""
-    watch = DegradationWatch(1, DegradationWatchSettings(SENSOR, threshold=1e9, warmup=0))
+    watch = DegradationWatch(1, DegradationWatchSettings(threshold=1e4, warmup=0), SENSOR)
     est = TargetEstimate.initial(np.zeros((1, 4)), 0.1, 0.1)
     z = SENSOR.predict(ROBOTS[:1, None, :], est.mean[None, :, :2]) + 5.0
     for step in range(50):
@@ -202,9 +205,9 @@ class _NoLearning:
 
 
 def test_the_watch_is_off_by_default_and_declared_as_a_team_event() -> None:
-    assert FailureAwareParams().degradation_watch.enabled is False
-    policy = make_policy("failure_aware", shipped("sensing-degrade"))
-    assert policy.belief_needs().degradation is None
+    assert BeliefSettings().degradation_watch.enabled is False
+    team = Team.from_scenario(shipped("sensing-degrade"), np.zeros((3, 4)))
+    assert team.belief.degradation_watch is None
     assert "degradation_detected" in EVENT_NAMES
     assert "degradation_detected" not in TRUTH_EVENTS
 
@@ -219,8 +222,8 @@ def test_the_watch_switched_off_changes_nothing_whatever_its_settings() -> None:
     off = overridden(
         base,
         {
-            "policy.failure_aware.degradation_watch.threshold": 1.0,
-            "policy.failure_aware.degradation_watch.zone_std": 2.0,
+            "belief.degradation_watch.threshold": 1.0,
+            "belief.degradation_watch.zone_std": 2.0,
         },
     )
     a, b = _tables(base, 103), _tables(off, 103)

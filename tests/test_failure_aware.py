@@ -154,7 +154,7 @@ def circling_scenario(infer: bool):
     as the paper's one-step program lets it (the route program heads for a target at once
     and would leave the jammer before its first activation tick)."""
     fit = {} if infer else {"min_samples": 10_000, "window": 10_000}
-    guess = {} if infer else {"silence_std": 0.0}
+    guess = {} if infer else {"provisional_zone": {"enabled": False}}
     slow = {"type": "waypoints", "speed": 0.25}
     return scenario(
         steps=260,
@@ -164,7 +164,7 @@ def circling_scenario(infer: bool):
             {"start": [-2.6, -0.8], "motion": {**slow, "points": [[-2.4, -0.6], [2.5, -0.2]]}},
         ],
         zones=[disk_comm_zone([0.0, 0.0], "permanent")],
-        policy={"name": "failure_aware", "failure_aware": {"circle_fit": fit, **guess}},
+        belief={"circle_fit": fit, **guess},
         planner={"program": "one_step"},
     )
 

@@ -47,4 +47,4 @@ def test_every_policy_parameter_appears_with_the_codes_default():
     risky = _row(text, "policy.failure_aware", "risky")
     assert "track: 50.0" in risky and "sensing_slack: 200.0" in risky
     for name in ("window", "min_samples", "min_arc", "silent_steps"):
-        _row(text, "policy.failure_aware.circle_fit", name)
+        _row(text, "belief.circle_fit", name)

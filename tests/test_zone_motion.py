@@ -10,21 +10,22 @@ import pytest
 
 from helpers import shipped
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.belief.settings import BeliefSettings
 from resilient_tracking.belief.zone_motion import ZoneMotionSettings, ZoneMotionTracker, ZoneTrack
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
 from resilient_tracking.planning.layout import SensingRow
-from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.team import Team
 
 VELOCITY = np.array([0.3, -0.2])
 START = np.array([1.0, 2.0])
 SIGMA = 0.3 * np.eye(2)
+DT = 0.1
 
 
 def settings(**changes: Any) -> ZoneMotionSettings:
     values: dict[str, Any] = dict(
-        dt=0.1, accel_std=0.02, speed_std=0.5, mean_std=0.05, max_std=0.0, refresh=0.0
+        enabled=True, accel_std=0.02, speed_std=0.5, mean_std=0.05, max_std=0.0, refresh=0.0
     )
     values.update(changes)
     return ZoneMotionSettings(**values)
@@ -57,10 +58,10 @@ def test_successive_clues_estimate_the_zone_velocity():
     track = ZoneTrack.start(mean_at(0), 0, s)
     np.testing.assert_array_equal(track.velocity, [0.0, 0.0])  # one clue: no motion known
     for step in (15, 30, 50, 80):
-        track = track.update(mean_at(step), step, s)
+        track = track.update(mean_at(step), step, s, DT)
     assert track.clues == 5 and track.step == 80
     np.testing.assert_allclose(track.velocity, VELOCITY, atol=0.01)
-    state, _ = track.predict(130, s)
+    state, _ = track.predict(130, s, DT)
     np.testing.assert_allclose(state[:2], mean_at(130), atol=0.05)
 
 
@@ -68,24 +69,24 @@ def test_a_still_zone_is_estimated_still():
     s = settings()
     track = ZoneTrack.start(START, 0, s)
     for step in (20, 40, 60):
-        track = track.update(START, step, s)
+        track = track.update(START, step, s, DT)
     np.testing.assert_allclose(track.velocity, [0.0, 0.0], atol=1e-3)
 
 
 def test_knowledge_grows_uncertain_with_time_since_the_last_clue():
     s = settings(speed_std=0.05)
     track = ZoneTrack.start(START, 10, s)
-    spreads = [np.trace(track.predict(step, s)[1][:2, :2]) for step in (10, 20, 60, 200)]
+    spreads = [np.trace(track.predict(step, s, DT)[1][:2, :2]) for step in (10, 20, 60, 200)]
     assert all(b > a for a, b in zip(spreads, spreads[1:], strict=False))
     # a second clue shrinks it again
-    updated = track.update(START, 200, s)
-    assert np.trace(updated.predict(200, s)[1][:2, :2]) < spreads[-1] / 10
+    updated = track.update(START, 200, s, DT)
+    assert np.trace(updated.predict(200, s, DT)[1][:2, :2]) < spreads[-1] / 10
 
 
 def test_predicted_knowledge_widens_up_to_the_cap():
     kb = KnowledgeBase({"zone0": estimate(0)})
     for cap, bounded in ((0.4, True), (0.0, False)):
-        tracker = ZoneMotionTracker(1, settings(speed_std=0.1, max_std=cap))
+        tracker = ZoneMotionTracker(1, settings(speed_std=0.1, max_std=cap), DT)
         tracker.observe(0, estimate(0), 0)
         near = tracker.predicted([0], kb, 5).zones["zone0"]
         far = tracker.predicted([0], kb, 500).zones["zone0"]
@@ -96,7 +97,7 @@ def test_predicted_knowledge_widens_up_to_the_cap():
 
 
 def test_the_prediction_is_republished_only_after_moving_more_than_refresh():
-    tracker = ZoneMotionTracker(1, settings(refresh=0.1, accel_std=0.0))
+    tracker = ZoneMotionTracker(1, settings(refresh=0.1, accel_std=0.0), DT)
     tracker.observe(0, estimate(0), 0)
     tracker.observe(0, estimate(20), 20)  # velocity (0.3, -0.2): 0.036 m per step
     kb = KnowledgeBase({"zone0": estimate(0)})
@@ -108,7 +109,7 @@ def test_the_prediction_is_republished_only_after_moving_more_than_refresh():
 
 
 def test_unidentified_estimates_stay_where_they_were_learned():
-    tracker = ZoneMotionTracker(1, settings())
+    tracker = ZoneMotionTracker(1, settings(), DT)
     circle = estimate(0, zone_id=None, key="circle1@0")
     tracker.observe(0, circle, 0)
     kb = KnowledgeBase({circle.key: circle})
@@ -116,7 +117,7 @@ def test_unidentified_estimates_stay_where_they_were_learned():
 
 
 def test_a_league_shares_the_newest_track_and_other_leagues_keep_theirs():
-    tracker = ZoneMotionTracker(3, settings())
+    tracker = ZoneMotionTracker(3, settings(), DT)
     tracker.observe(0, estimate(0), 0)
     tracker.observe(1, estimate(0), 0)
     tracker.observe(1, estimate(30), 30)  # robot 1 saw the zone again
@@ -170,7 +171,7 @@ def run_team(zone_motion: dict[str, Any] | None, steps: int = 30):
     s = shipped("sensing-perm")
     if zone_motion is not None:
         s = overridden(
-            s, {f"policy.failure_aware.zone_motion.{k}": v for k, v in zone_motion.items()}
+            s, {f"belief.zone_motion.{k}": v for k, v in zone_motion.items()}
         )
     team = Team.from_scenario(s, np.zeros((3, 4)))
     rows: list[tuple[int, np.ndarray]] = []
@@ -192,7 +193,7 @@ def run_team(zone_motion: dict[str, Any] | None, steps: int = 30):
 
 
 def test_option_off_plans_against_the_zone_as_learned():
-    assert not FailureAwareParams().zone_motion.enabled
+    assert not BeliefSettings().zone_motion.enabled
     team, rows = run_team(None)
     assert team.belief.zone_motion is None
     step, table = rows[-1]
@@ -209,7 +210,7 @@ def test_league_rows_use_the_zone_predicted_at_plan_time():
     track = tracker.tracks[2]["zone0"]
     assert track.clues == 2  # the victims' clues reached the third robot
     step, table = rows[-1]
-    state, cov = track.predict(step + 1, tracker.settings)
+    state, cov = track.predict(step + 1, tracker.settings, tracker.dt)
     row = table[0]
     np.testing.assert_allclose(row[SensingRow.MEAN], state[:2])
     grown = SIGMA + cov[:2, :2]
@@ -225,7 +226,7 @@ def test_belief_is_built_from_clues_alone():
     tracker = team.belief.zone_motion
     assert tracker is not None
     replay = ZoneTrack.start(mean_at(0), 0, tracker.settings).update(
-        mean_at(20), 20, tracker.settings
+        mean_at(20), 20, tracker.settings, tracker.dt
     )
     held = tracker.tracks[0]["zone0"]
     np.testing.assert_array_equal(held.state, replay.state)
@@ -235,4 +236,4 @@ def test_belief_is_built_from_clues_alone():
 @pytest.mark.parametrize("field", ["accel_std", "speed_std", "max_std", "refresh"])
 def test_zone_motion_numbers_are_bounded(field):
     with pytest.raises(ValueError, match=field):
-        FailureAwareParams.model_validate({"zone_motion": {field: -1.0}})
+        BeliefSettings.model_validate({"zone_motion": {field: -1.0}})

@@ -41,7 +41,7 @@ from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world.degradation import Degradations
 
 TEAMS = ("paper", "extended", "known noise")
-WATCH = "policy.failure_aware.degradation_watch.enabled"
+WATCH = "belief.degradation_watch.enabled"
 
 
 def _oracle(watch: DegradationWatch, truth: Degradations) -> Any:

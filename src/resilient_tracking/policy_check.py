@@ -235,6 +235,7 @@ def _drive(
             means + noise, prior.initial_position_std, prior.initial_velocity_std
         ),
         make_estimator(scenario, config),
+        scenario.belief,
     )
     positions = np.array([r.start for r in scenario.robots], dtype=float)
     out: list[tuple[str, np.ndarray | None]] = []

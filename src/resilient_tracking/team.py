@@ -30,6 +30,7 @@ import numpy as np
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
+from resilient_tracking.belief.settings import BeliefSettings
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.build import (
     make_estimator,
@@ -87,7 +88,8 @@ class Team:
     """Belief plus policy for ``M`` robots tracking ``N`` targets.
 
     The belief starts from ``initial_estimate``, keeps what the policy declares it needs
-    (:meth:`~resilient_tracking.policies.base.Policy.belief_needs`) and estimates with
+    (:meth:`~resilient_tracking.policies.base.Policy.belief_needs`) with its own ``belief``
+    settings (the scenario's ``belief`` section; defaults when ``None``) and estimates with
     ``estimator`` (default: the EKF of the team's target model and sensor).
     """
 
@@ -96,6 +98,7 @@ class Team:
         policy: Policy,
         initial_estimate: TargetEstimate,
         estimator: Estimator | None = None,
+        belief: BeliefSettings | None = None,
     ):
         self.policy = policy
         #: the team's own description: robots, bounds, sensor (the policy's)
@@ -105,6 +108,10 @@ class Team:
             initial=initial_estimate,
             estimator=estimator or ExtendedKalmanFilter(config.target_model, config.sensor),
             needs=policy.belief_needs(),
+            settings=belief,
+            dt=config.dt,
+            sensor=config.sensor,
+            comm_range=config.comm_range,
         )
         self.n_targets = int(initial_estimate.mean.shape[0])
         #: channels of one measurement of the team's sensor (its ``DIM``)
@@ -128,6 +135,7 @@ class Team:
             make_policy(policy or scenario.policy.name, scenario, config),
             TargetEstimate.initial(means, spec.initial_position_std, spec.initial_velocity_std),
             make_estimator(scenario, config),
+            scenario.belief,
         )
         team.belief.map_zones(zone_map(scenario))
         return team
@@ -265,6 +273,7 @@ def build_team(
         make_policy(policy_name, scenario, config, planner),
         prior_estimate(scenario, initial_targets, seed),
         make_estimator(scenario, config),
+        scenario.belief,
     )
     team.belief.map_zones(zone_map(scenario))
     return team

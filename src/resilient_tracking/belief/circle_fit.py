@@ -12,8 +12,10 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import Field
 
 from resilient_tracking.belief.knowledge import ZoneEstimate
+from resilient_tracking.spec import MAX_RATIO, MAX_STEP_COUNT, PositiveLength, Strict
 
 
 @dataclass(frozen=True)
@@ -72,17 +74,58 @@ def arc_coverage(points: np.ndarray, center: np.ndarray) -> float:
     return float(2 * np.pi - gaps.max())
 
 
-@dataclass(frozen=True)
-class CircleGates:
-    """Quality gates a circle fit must pass before a comm zone is inferred from it (Alg. 3):
-    the observation window, samples, arc (rad), residual and radius bounds (m)."""
+class CircleFitSettings(Strict):
+    """EstimateCircleParameters (Alg. 3): when a silent teammate is watched, when its observed
+    path counts as a circle, and the comm zone inferred from one."""
 
-    window: int = 40
-    min_samples: int = 20
-    min_arc: float = 2.5
-    max_residual: float = 0.08
-    min_radius: float = 0.2
-    max_radius: float = 5.0
+    window: int = Field(
+        40,
+        ge=5,
+        le=10_000,
+        description="Last observed positions of a silent robot used in the fit.",
+        json_schema_extra={"unit": "steps"},
+    )
+    min_samples: int = Field(
+        20,
+        ge=5,
+        le=10_000,
+        description="Fewest positions before a fit is accepted.",
+        json_schema_extra={"unit": "steps"},
+    )
+    min_arc: float = Field(
+        2.5,
+        gt=0,
+        le=6.2832,
+        description="Smallest arc of the circle the positions must cover.",
+        json_schema_extra={"unit": "rad"},
+    )
+    max_residual: PositiveLength = Field(
+        0.08,
+        description="Largest RMS radial residual of an accepted fit.",
+        json_schema_extra={"unit": "m"},
+    )
+    min_radius: PositiveLength = Field(
+        0.2, description="Smallest plausible circle radius.", json_schema_extra={"unit": "m"}
+    )
+    max_radius: PositiveLength = Field(
+        5.0, description="Largest plausible circle radius.", json_schema_extra={"unit": "m"}
+    )
+    silent_steps: int = Field(
+        8,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Steps without any working link before a teammate is watched.",
+        json_schema_extra={"unit": "steps"},
+    )
+    inferred_delta2: float = Field(
+        0.3,
+        gt=0,
+        le=MAX_RATIO,
+        description=(
+            "Jammer strength assumed for a comm zone inferred from a circle (its δ2 is not seen)."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
 
     def accept(self, fit: CircleFit) -> bool:
         """Whether a fit passes every gate: enough samples, enough arc, a small residual and a
@@ -98,9 +141,9 @@ class CircleGates:
 class CircleWatcher:
     """Watches robots that went silent and infers comm zones from their circles."""
 
-    def __init__(self, gates: CircleGates, silent_steps: int = 5):
+    def __init__(self, gates: CircleFitSettings):
         self.gates = gates
-        self.silent_steps = silent_steps
+        self.silent_steps = gates.silent_steps
         self._tracks: dict[int, deque[np.ndarray]] = {}
         self._silent_for: dict[int, int] = {}
         self.inferred: dict[int, CircleFit] = {}

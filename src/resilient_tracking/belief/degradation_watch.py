@@ -44,55 +44,141 @@ measurements, as the filter does.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import numpy as np
+from pydantic import Field
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.knowledge import ZoneEstimate
 from resilient_tracking.belief.silent_robots import LearningBelief
 from resilient_tracking.events import Event
 from resilient_tracking.models.sensor import MeasurementModel, wrap_angle
+from resilient_tracking.spec import (
+    MAX_POSITION_STD,
+    MAX_RATIO,
+    MAX_STEP_COUNT,
+    MAX_UPDATE_ITERATIONS,
+    PositiveLength,
+    Strict,
+)
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class DegradationWatchSettings:
-    """How a degraded sensor is told from a nominal one, and what the team does about it."""
+class DegradationWatchSettings(Strict):
+    """Finding a robot's silently degraded sensor from its own measurements and adapting to it
+    (docs/model.md §6.4)."""
 
-    #: the team's sensor (its measurement, Jacobian and nominal noise)
-    sensor: MeasurementModel
-    #: noise standard-deviation factor the CUSUM is tuned to (its alternative hypothesis)
-    design_factor: float = 2.0
-    #: CUSUM threshold (a log-likelihood ratio)
-    threshold: float = 20.0
-    #: steps from the first tick before the CUSUM starts (the filter settles from its prior)
-    warmup: int = 30
-    #: cap on one measurement's NIS in the CUSUM
-    nis_cap: float = 20.0
-    #: steps over which the noise estimate forgets (exponential)
-    memory: float = 30.0
-    #: largest noise standard-deviation factor estimated
-    max_factor: float = 20.0
-    #: radius (m) and spread (m) of the sensing zone learned where a degradation is found
-    zone_radius: float = 0.5
-    zone_std: float = 0.5
-    #: whether a detection teaches the robot a sensing zone (teams that keep zone knowledge)
-    learn_zone: bool = True
-    #: linearisations per update of a league with a robot found degraded (1: the paper's EKF)
-    update_iterations: int = 5
-    #: whether that update's noise carries the second-order term (the measurement's curvature)
-    second_order: bool = True
+    enabled: bool = Field(
+        False,
+        description=(
+            "Beyond the paper: check each robot's measurements against its league's predicted"
+            " estimate (NIS, CUSUM); a robot found degraded has its noise re-estimated and used"
+            " by the filter, counts as partly attacked in the adaptive weights (1 − 1/λ̂ of a"
+            " robot) and learns a sensing zone where it was found, shared with its league."
+            " false, the default: the paper's team."
+        ),
+    )
+    design_factor: float = Field(
+        2.0,
+        gt=1,
+        le=MAX_RATIO,
+        description=(
+            "Noise standard-deviation factor the CUSUM is tuned to: the alternative hypothesis"
+            " of its log-likelihood ratio (the noise variance times its square)."
+        ),
+        json_schema_extra={"unit": "ratio"},
+    )
+    threshold: float = Field(
+        20.0,
+        gt=0,
+        le=MAX_RATIO,
+        description=(
+            "CUSUM threshold, a log-likelihood ratio: larger means fewer false alarms and later"
+            " detections."
+        ),
+    )
+    warmup: int = Field(
+        30,
+        ge=0,
+        le=MAX_STEP_COUNT,
+        description=(
+            "Steps from the first tick before the CUSUM starts: the filter first settles from"
+            " its wide initial prior."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
+    nis_cap: float = Field(
+        20.0,
+        gt=0,
+        le=MAX_RATIO,
+        description=(
+            "Cap on one measurement's normalised innovation squared in the CUSUM, so one outlier"
+            " adds a bounded amount."
+        ),
+    )
+    memory: float = Field(
+        30.0,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Steps over which a degraded sensor's noise estimate forgets (exponentially).",
+        json_schema_extra={"unit": "steps"},
+    )
+    max_factor: float = Field(
+        20.0,
+        ge=1,
+        le=MAX_RATIO,
+        description="Largest noise standard-deviation factor estimated.",
+        json_schema_extra={"unit": "ratio"},
+    )
+    zone_radius: PositiveLength = Field(
+        0.5,
+        description="Radius of the sensing zone learned where a degradation is found.",
+        json_schema_extra={"unit": "m"},
+    )
+    zone_std: float = Field(
+        0.5,
+        gt=0,
+        le=MAX_POSITION_STD,
+        description="Spread of the centre of the zone learned where a degradation is found.",
+        json_schema_extra={"unit": "m"},
+    )
+    update_iterations: int = Field(
+        5,
+        ge=1,
+        le=MAX_UPDATE_ITERATIONS,
+        description=(
+            "Linearisations per measurement update of a league with a robot found degraded (the"
+            " iterated EKF: each at the last one's result); 1: the estimator's own update."
+        ),
+        json_schema_extra={"unit": "count"},
+    )
+    second_order: bool = Field(
+        True,
+        description=(
+            "Whether that update's noise carries each channel's second-order term, so a large"
+            " noise next to a target does not make the update overconfident."
+        ),
+    )
 
 
 class DegradationWatch:
     """Per robot: the CUSUM, the noise estimate and whether a degradation was found."""
 
-    def __init__(self, n_robots: int, settings: DegradationWatchSettings):
+    def __init__(
+        self,
+        n_robots: int,
+        settings: DegradationWatchSettings,
+        sensor: MeasurementModel,
+        learn_zone: bool = True,
+    ):
         self.settings = settings
+        #: the team's sensor (its measurement, Jacobian and nominal noise)
+        self.sensor = sensor
+        #: whether a detection teaches the robot a sensing zone (teams that keep zone knowledge)
+        self.learn_zone = learn_zone
         lam1 = settings.design_factor**2
-        self._llr_offset = -0.5 * settings.sensor.DIM * np.log(lam1)
+        self._llr_offset = -0.5 * sensor.DIM * np.log(lam1)
         self._llr_slope = 0.5 * (1.0 - 1.0 / lam1)
         self._forget = 1.0 - 1.0 / settings.memory
         self._max_scale = settings.max_factor**2
@@ -210,7 +296,7 @@ class DegradationWatch:
             factor,
             self.cusum[robot],
         )
-        if s.learn_zone:
+        if self.learn_zone:
             belief.learn(
                 robot,
                 ZoneEstimate(
@@ -233,7 +319,7 @@ class DegradationWatch:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per robot and target: the NIS ``q`` (NaN where not measured); per robot: the sum of
         ``ν̃ᵀR⁻¹ν̃ − tr(R⁻¹HPHᵀ)`` and the channels measured, all at the nominal ``R``."""
-        sensor = self.settings.sensor
+        sensor = self.sensor
         robots = np.asarray(positions, dtype=float).reshape(-1, 2)
         z = np.asarray(measurements, dtype=float)
         h, hjac, var = sensor.linearise(robots[:, None, :], prior.mean[None, :, :2])

@@ -68,6 +68,9 @@ class ExtendedKalmanFilter:
     """EKF for ``N`` independent NCV targets observed by ``K`` robots through ``sensor``
     (its measurement, Jacobian and noise; the paper's is range-bearing)."""
 
+    #: its update takes ``noise_scale`` (:class:`~.estimator.Estimator`)
+    scales_noise = True
+
     def __init__(
         self,
         model: NearlyConstantVelocity,

@@ -44,6 +44,9 @@ class InteractingMultipleModel:
     """IMM over ``models`` (same ``dt``) with Markov ``transition`` ``(M, M)`` (rows sum to one)
     and ``initial`` mode probabilities ``(M,)``, measured through ``sensor``."""
 
+    #: its update takes ``noise_scale`` (:class:`~.estimator.Estimator`)
+    scales_noise = True
+
     def __init__(
         self,
         models: Sequence[NearlyConstantVelocity],
@@ -171,6 +174,11 @@ class InteractingMultipleModel:
         pred_means = mixed @ a.T
         pred_covs = symmetrize(np.einsum("ab,nmbc,dc->nmad", a, mixed_cov, a) + self._q)
         return _combined(ModeStates(c, pred_means, pred_covs))
+
+    def with_update(self, iterations: int, second_order: bool) -> InteractingMultipleModel:
+        """This IMM: its modes' updates are its own (set at construction), so a league with a
+        degraded sensor updates as any other (:class:`~.estimator.Estimator`)."""
+        return self
 
     def update(
         self,

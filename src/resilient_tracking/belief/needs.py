@@ -2,18 +2,25 @@
 
 The belief always keeps the leagues and one target estimate per league. Beyond that a policy
 may ask for zone knowledge (attack clues learned and shared within leagues; a vanilla team
-keeps none), for comm zones inferred from silent teammates (the paper's Alg. 3), for zone
-estimates that age and move (:mod:`~resilient_tracking.belief.zone_motion`) and for a watch
-on silently degraded sensors.
+keeps none) and for comm zones inferred from silent teammates (the paper's Alg. 3), saying how
+its own robots circle. How the belief does all this, and its features beyond the paper, are the
+belief's own settings (:class:`~resilient_tracking.belief.settings.BeliefSettings`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from resilient_tracking.belief.degradation_watch import DegradationWatchSettings
-from resilient_tracking.belief.silent_robots import SilentRobotSettings
-from resilient_tracking.belief.zone_motion import ZoneMotionSettings
+
+@dataclass(frozen=True)
+class CircleReading:
+    """How the policy's robots circle their attacker (Alg. 4), so that listeners can read a
+    fitted circle back into a comm zone (Alg. 3)."""
+
+    #: chance-constraint margin β2 of the evasion circle (eq. 7d at risk level ε2)
+    beta2: float
+    #: margin the evading robot adds to its circle radius
+    circle_margin: float
 
 
 @dataclass(frozen=True)
@@ -22,11 +29,5 @@ class BeliefNeeds:
 
     #: learn zones from attack clues and share them within each league
     zones: bool = True
-    #: infer comm zones from silent teammates with these settings (``None``: do not)
-    silent_robots: SilentRobotSettings | None = None
-    #: track identified zones' motion from successive clues with these settings (``None``:
-    #: zone estimates stay where they were learned)
-    zone_motion: ZoneMotionSettings | None = None
-    #: find silently degraded sensors and adapt their noise with these settings (``None``:
-    #: do not; docs/model.md §6.4)
-    degradation: DegradationWatchSettings | None = None
+    #: infer comm zones from silent teammates, whose circles read this way (``None``: do not)
+    silent_robots: CircleReading | None = None

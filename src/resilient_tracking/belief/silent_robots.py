@@ -1,13 +1,14 @@
 """Comm zones learned from silent teammates (the paper's Alg. 3, EstimateCircleParameters).
 
 Robots that still have links watch the ones without: a teammate that falls silent within radio
-range suggests a jammer where it is (a provisional comm zone of spread ``silence_std``, our
-addition to Alg. 3), and a silent robot seen circling (CircularEvasionMode, Alg. 4) tells where
-its attacker is: the fitted circle becomes a comm zone estimate. Both are learned by every
-listener; the league shares them from the next tick on like any other knowledge.
+range suggests a jammer where it is (a provisional comm zone, beyond Alg. 3:
+:class:`ProvisionalZoneSettings`), and a silent robot seen circling (CircularEvasionMode, Alg. 4)
+tells where its attacker is: the fitted circle becomes a comm zone estimate. Both are learned by
+every listener; the league shares them from the next tick on like any other knowledge.
 
 The team's belief runs this watch at the end of its update when the policy needs it
-(:class:`~resilient_tracking.belief.needs.BeliefNeeds`).
+(:class:`~resilient_tracking.belief.needs.BeliefNeeds`), with the belief's own settings
+(:class:`~resilient_tracking.belief.settings.BeliefSettings`).
 """
 
 from __future__ import annotations
@@ -16,11 +17,29 @@ from dataclasses import dataclass
 from typing import Protocol, cast
 
 import numpy as np
+from pydantic import Field
 
-from resilient_tracking.belief.circle_fit import CircleGates, CircleWatcher, zone_from_circle
+from resilient_tracking.belief.circle_fit import CircleFitSettings, CircleWatcher, zone_from_circle
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.spec import MAX_POSITION_STD, Strict
+
+
+class ProvisionalZoneSettings(Strict):
+    """A provisional comm zone where a teammate within radio range falls silent, until a circle
+    fit replaces it (docs/model.md §10.1)."""
+
+    enabled: bool = Field(
+        True, description="Whether listeners learn a provisional comm zone where one falls silent."
+    )
+    std: float = Field(
+        0.3,
+        gt=0,
+        le=MAX_POSITION_STD,
+        description="Spread of the provisional comm zone's centre.",
+        json_schema_extra={"unit": "m"},
+    )
 
 
 class LearningBelief(Protocol):
@@ -38,20 +57,16 @@ class LearningBelief(Protocol):
 
 @dataclass(frozen=True)
 class SilentRobotSettings:
-    """How silent robots are read: the circle gates and the zones made from what is seen."""
+    """How silent robots are read: the belief's settings and how the team's robots circle."""
 
-    #: when an observed path counts as a circle
-    gates: CircleGates
-    #: steps without any working link before a robot is watched
-    silent_steps: int
-    #: jammer strength δ2 assumed for an inferred comm zone (it is not observable)
-    inferred_delta2: float
+    #: when a silent robot is watched and its path counts as a circle (Alg. 3)
+    circle_fit: CircleFitSettings
+    #: the provisional zone where a teammate falls silent
+    provisional_zone: ProvisionalZoneSettings
     #: chance-constraint margin β2 of the evasion circle (eq. 7d at risk level ε2)
     beta2: float
     #: margin the evading robot added to its circle radius
     circle_margin: float
-    #: spread (m) of the provisional zone where a teammate fell silent; 0 turns it off
-    silence_std: float
     #: radio range (m) of the team, ``None`` for unlimited
     comm_range: float | None
 
@@ -61,7 +76,7 @@ class SilentRobotWatch:
 
     def __init__(self, settings: SilentRobotSettings):
         self.settings = settings
-        self.watcher = CircleWatcher(settings.gates, silent_steps=settings.silent_steps)
+        self.watcher = CircleWatcher(settings.circle_fit)
         #: robots that had no link at the last tick
         self._silent: set[int] = set()
 
@@ -85,7 +100,7 @@ class SilentRobotWatch:
                 fit,
                 robot,
                 obs.step,
-                delta2=s.inferred_delta2,
+                delta2=s.circle_fit.inferred_delta2,
                 beta2=s.beta2,
                 margin=s.circle_margin,
             )
@@ -105,11 +120,12 @@ class SilentRobotWatch:
         """A teammate within radio range fell silent: a jammer is near where it is. Until its
         circle is fitted, the league keeps clear of a provisional comm zone there, unless one
         is known nearby."""
-        std = self.settings.silence_std
+        provisional = self.settings.provisional_zone
+        std = provisional.std
         where = obs.positions[robot]
         others = obs.positions[listeners]
         reach = self.settings.comm_range
-        if std <= 0 or (
+        if not provisional.enabled or (
             reach is not None and np.min(np.linalg.norm(others - where, axis=1)) > reach
         ):
             return []
@@ -121,7 +137,7 @@ class SilentRobotWatch:
             kind="comm",
             mean=np.array(where, dtype=float),
             cov=std**2 * np.eye(2),
-            size=self.settings.inferred_delta2,
+            size=self.settings.circle_fit.inferred_delta2,
             persistence="unknown",
             source="silence",
             learned_step=obs.step,

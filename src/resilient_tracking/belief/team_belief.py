@@ -28,27 +28,27 @@ Each tick (docs/model.md §3–4):
 
 from __future__ import annotations
 
-import functools
-import inspect
 import logging
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import replace
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 
 from resilient_tracking.belief.degradation_watch import DegradationWatch
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.belief.estimator import Estimator
+from resilient_tracking.belief.estimator import Estimator, NoiseScalingEstimator
 from resilient_tracking.belief.fusion import fuse_estimates
 from resilient_tracking.belief.health import repair_covariances, surely_healthy
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.modes import ModeStates
 from resilient_tracking.belief.needs import BeliefNeeds
-from resilient_tracking.belief.silent_robots import SilentRobotWatch
+from resilient_tracking.belief.settings import BeliefSettings
+from resilient_tracking.belief.silent_robots import SilentRobotSettings, SilentRobotWatch
 from resilient_tracking.belief.zone_motion import ZoneMotionTracker
 from resilient_tracking.events import Event
 from resilient_tracking.models.graph import components
+from resilient_tracking.models.sensor import MeasurementModel
 from resilient_tracking.observation import TeamObservation
 
 log = logging.getLogger(__name__)
@@ -64,37 +64,57 @@ class TeamBelief:
         estimator: Estimator,
         needs: BeliefNeeds | None = None,
         ci_criterion: Literal["trace", "det"] = "trace",
+        *,
+        settings: BeliefSettings | None = None,
+        dt: float | None = None,
+        sensor: MeasurementModel | None = None,
+        comm_range: float | None = None,
     ):
+        """``settings`` are the belief's own (:class:`BeliefSettings`; defaults when ``None``);
+        ``dt`` (s) is needed to track zone motion, ``sensor`` (the team's) to watch for degraded
+        sensors, ``comm_range`` (m, ``None``: unlimited) to read silent teammates."""
         self.n_robots = n_robots
         #: predicts and updates the league estimates (the EKF of :mod:`~.ekf` by default)
         self.estimator = estimator
         self.needs = needs or BeliefNeeds()
+        self.settings = settings = settings or BeliefSettings()
         self.ci_criterion = ci_criterion
         #: infers comm zones from silent teammates at the end of each update (or ``None``)
-        settings = self.needs.silent_robots
-        self.silent_robot_watch = None if settings is None else SilentRobotWatch(settings)
-        motion = self.needs.zone_motion
-        #: tracks of the zones' motion from successive clues (or ``None``: zones stay put)
-        self.zone_motion = None if motion is None else ZoneMotionTracker(n_robots, motion)
-        #: finds silently degraded sensors and scales their noise (or ``None``)
-        watch = self.needs.degradation
-        self.degradation_watch = None
-        if watch is not None:
-            if not self.needs.zones:
-                watch = replace(watch, learn_zone=False)
-            self.degradation_watch = DegradationWatch(n_robots, watch)
-        #: whether the estimator's update takes ``noise_scale`` (the EKF and the IMM do)
-        function = getattr(estimator.update, "__func__", None)  # (a method's: asked once)
-        self._scales_noise = (
-            _takes_noise_scale(function)
-            if function is not None
-            else "noise_scale" in inspect.signature(estimator.update).parameters
+        reading = self.needs.silent_robots
+        self.silent_robot_watch = (
+            None
+            if reading is None
+            else SilentRobotWatch(
+                SilentRobotSettings(
+                    circle_fit=settings.circle_fit,
+                    provisional_zone=settings.provisional_zone,
+                    beta2=reading.beta2,
+                    circle_margin=reading.circle_margin,
+                    comm_range=comm_range,
+                )
+            )
         )
-        #: a league with a robot found degraded: the watch's careful update where the estimator
-        #: offers one (the EKF; the IMM's modes already update that way)
+        #: tracks of the zones' motion from successive clues (or ``None``: zones stay put)
+        self.zone_motion = None
+        if settings.zone_motion.enabled and self.needs.zones:
+            if dt is None:
+                raise ValueError("TeamBelief: zone motion needs the time step dt")
+            self.zone_motion = ZoneMotionTracker(n_robots, settings.zone_motion, dt)
+        #: finds silently degraded sensors and scales their noise (or ``None``)
+        watch = settings.degradation_watch
+        self.degradation_watch = None
+        if watch.enabled:
+            if sensor is None:
+                raise ValueError("TeamBelief: the degradation watch needs the team's sensor")
+            self.degradation_watch = DegradationWatch(n_robots, watch, sensor, self.needs.zones)
+        #: whether the estimator's update takes ``noise_scale`` (the EKF and the IMM do)
+        self._scales_noise = getattr(estimator, "scales_noise", False) is True
+        #: a league with a robot found degraded: the estimator's careful update (the EKF's is
+        #: iterated; the IMM's modes already update that way)
         self._degraded_update = estimator.update
-        if watch is not None and hasattr(estimator, "with_update"):
-            careful = estimator.with_update(watch.update_iterations, watch.second_order)
+        if self.degradation_watch is not None and self._scales_noise:
+            scaling = cast(NoiseScalingEstimator, estimator)
+            careful = scaling.with_update(watch.update_iterations, watch.second_order)
             self._degraded_update = careful.update
         if self.degradation_watch is not None and not self._scales_noise:
             log.warning(
@@ -309,13 +329,6 @@ class TeamBelief:
             ),
         )
         return self.estimates[best]
-
-
-@functools.lru_cache(maxsize=64)
-def _takes_noise_scale(update: Callable[..., object]) -> bool:
-    """Whether an estimator's ``update`` takes ``noise_scale`` (kept per function: every
-    episode makes a belief)."""
-    return "noise_scale" in inspect.signature(update).parameters
 
 
 def _reseated_modes(

@@ -21,26 +21,74 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from pydantic import Field
 
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
+from resilient_tracking.spec import MAX_ACCEL, MAX_POSITION_STD, MAX_SPEED, Length, Strict
 
 
-@dataclass(frozen=True)
-class ZoneMotionSettings:
-    """How zone estimates age and move (the failure-aware policy's ``zone_motion``)."""
+class ZoneMotionSettings(Strict):
+    """Zone estimates that age and move: a nearly-constant-velocity Kalman filter per identified
+    zone, fed with the means of successive clues."""
 
-    #: seconds per step
-    dt: float
-    #: white-noise acceleration (m/s²) of the nearly-constant-velocity model (process noise)
-    accel_std: float
-    #: prior standard deviation (m/s) of a zone's velocity before a second clue
-    speed_std: float
-    #: measurement noise (m) of a clue's mean
-    mean_std: float
-    #: cap (m) on the standard deviation the filter adds to a zone's spread; 0: no cap
-    max_std: float
-    #: distance (m) the prediction moves before the published estimate is replaced
-    refresh: float
+    enabled: bool = Field(
+        False,
+        description=(
+            "Beyond the paper: each identified zone's clues feed a filter of its mean and"
+            " velocity; the team plans against the zone predicted at plan time, its spread"
+            " grown by the filter's position uncertainty. false, the default: zone estimates"
+            " stay where they were learned (the paper's team)."
+        ),
+    )
+    accel_std: float = Field(
+        0.02,
+        ge=0,
+        le=MAX_ACCEL,
+        description=(
+            "Process noise: white-noise acceleration of the nearly-constant-velocity model"
+            " (spectral density accel_std²)."
+        ),
+        json_schema_extra={"unit": "m/s²"},
+    )
+    speed_std: float = Field(
+        0.02,
+        ge=0,
+        le=MAX_SPEED,
+        description=(
+            "Prior standard deviation of a zone's velocity (each axis) before its second clue:"
+            " how fast the knowledge of a zone seen once grows uncertain."
+        ),
+        json_schema_extra={"unit": "m/s"},
+    )
+    mean_std: float = Field(
+        0.05,
+        gt=0,
+        le=MAX_POSITION_STD,
+        description=(
+            "Measurement noise of a clue's mean (a clue gives the zone's prior mean as it is at"
+            " the attack; its covariance is the zone's own spread, kept apart)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    max_std: float = Field(
+        1.0,
+        ge=0,
+        le=MAX_POSITION_STD,
+        description=(
+            "Cap on the standard deviation (largest axis) the filter adds to a zone's spread;"
+            " 0: no cap."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    refresh: Length = Field(
+        0.1,
+        description=(
+            "Distance the predicted zone (its mean, or its largest standard deviation) moves"
+            " before the team replans around the new prediction; keeps zone rows and route"
+            " maps from being rebuilt every step. 0: every step."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
 
 
 @dataclass(frozen=True)
@@ -59,10 +107,10 @@ class ZoneTrack:
         cov = np.diag([s.mean_std**2] * 2 + [s.speed_std**2] * 2)
         return cls(state, cov, step, 1)
 
-    def predict(self, step: int, s: ZoneMotionSettings) -> tuple[np.ndarray, np.ndarray]:
-        """State and covariance predicted to ``step`` (nearly constant velocity, continuous
-        white-noise acceleration of spectral density ``accel_std²``)."""
-        tau = max(step - self.step, 0) * s.dt
+    def predict(self, step: int, s: ZoneMotionSettings, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """State and covariance predicted to ``step`` of ``dt`` seconds (nearly constant
+        velocity, continuous white-noise acceleration of spectral density ``accel_std²``)."""
+        tau = max(step - self.step, 0) * dt
         f = np.eye(4)
         f[0, 2] = f[1, 3] = tau
         q = s.accel_std**2 * np.kron(
@@ -70,9 +118,9 @@ class ZoneTrack:
         )
         return f @ self.state, f @ self.cov @ f.T + q
 
-    def update(self, mean: np.ndarray, step: int, s: ZoneMotionSettings) -> ZoneTrack:
+    def update(self, mean: np.ndarray, step: int, s: ZoneMotionSettings, dt: float) -> ZoneTrack:
         """The track after a clue with ``mean`` at ``step`` (a Kalman update, ``H = [I 0]``)."""
-        x, p = self.predict(step, s)
+        x, p = self.predict(step, s, dt)
         innovation_cov = p[:2, :2] + s.mean_std**2 * np.eye(2)
         gain = np.linalg.solve(innovation_cov, p[:2, :]).T  # P Hᵀ S⁻¹ (S symmetric)
         x = x + gain @ (np.asarray(mean, dtype=float) - x[:2])
@@ -98,8 +146,10 @@ def _newer(a: ZoneTrack, b: ZoneTrack) -> bool:
 class ZoneMotionTracker:
     """Each robot's zone tracks, shared within leagues; predicted knowledge at plan time."""
 
-    def __init__(self, n_robots: int, settings: ZoneMotionSettings):
+    def __init__(self, n_robots: int, settings: ZoneMotionSettings, dt: float):
         self.settings = settings
+        #: seconds per step
+        self.dt = dt
         self.tracks: list[dict[str, ZoneTrack]] = [{} for _ in range(n_robots)]
         #: per league and zone key: the track and estimate it was published from, and the
         #: published (predicted) estimate
@@ -117,7 +167,7 @@ class ZoneMotionTracker:
         if held is None:
             self.tracks[robot][estimate.key] = ZoneTrack.start(estimate.mean, step, s)
         else:
-            self.tracks[robot][estimate.key] = held.update(estimate.mean, step, s)
+            self.tracks[robot][estimate.key] = held.update(estimate.mean, step, s, self.dt)
 
     def share(self, leagues: list[list[int]]) -> None:
         """Within each league every member takes, per zone, the newest track any member holds."""
@@ -161,7 +211,7 @@ class ZoneMotionTracker:
         return KnowledgeBase(zones)
 
     def _at(self, track: ZoneTrack, zone: ZoneEstimate, step: int) -> tuple[np.ndarray, np.ndarray]:
-        x, p = track.predict(step, self.settings)
+        x, p = track.predict(step, self.settings, self.dt)
         grown = p[:2, :2]
         cap = self.settings.max_std
         if cap > 0:

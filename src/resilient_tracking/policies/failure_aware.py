@@ -14,8 +14,8 @@ Per league, every tick:
 
 League members also watch silent robots: a circle fitted to one's positions becomes a comm
 zone estimate (Alg. 3) that the league avoids from then on. That learning happens in belief
-(:mod:`resilient_tracking.belief.silent_robots`); the policy declares it needs it, with its
-parameters (:meth:`FailureAwarePolicy.belief_needs`).
+(:mod:`resilient_tracking.belief.silent_robots`); the policy declares it needs it, with how its
+robots circle (:meth:`FailureAwarePolicy.belief_needs`).
 """
 
 from __future__ import annotations
@@ -24,13 +24,9 @@ import math
 
 import numpy as np
 
-from resilient_tracking.belief.circle_fit import CircleGates
-from resilient_tracking.belief.degradation_watch import DegradationWatchSettings
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
-from resilient_tracking.belief.needs import BeliefNeeds
-from resilient_tracking.belief.silent_robots import SilentRobotSettings
+from resilient_tracking.belief.needs import BeliefNeeds, CircleReading
 from resilient_tracking.belief.team_belief import TeamBelief
-from resilient_tracking.belief.zone_motion import ZoneMotionSettings
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
@@ -102,56 +98,11 @@ class FailureAwarePolicy(PlanningPolicy):
     # ------------------------------------------------------------------ the tick
 
     def belief_needs(self) -> BeliefNeeds:
-        """Zone knowledge, comm zones inferred from silent teammates (Alg. 3), with
-        ``zone_motion`` the zones' motion tracked from successive clues, and with
-        ``degradation_watch`` the watch on silently degraded sensors."""
-        params = self.params
-        fit = params.circle_fit
-        motion = params.zone_motion
-        watch = params.degradation_watch
+        """Zone knowledge, and comm zones inferred from silent teammates (Alg. 3), whose
+        circles (Alg. 4) read at this policy's ``ε2`` and circle margin."""
         return BeliefNeeds(
-            degradation=DegradationWatchSettings(
-                sensor=self.config.sensor,
-                design_factor=watch.design_factor,
-                threshold=watch.threshold,
-                warmup=watch.warmup,
-                nis_cap=watch.nis_cap,
-                memory=watch.memory,
-                max_factor=watch.max_factor,
-                zone_radius=watch.zone_radius,
-                zone_std=watch.zone_std,
-                update_iterations=watch.update_iterations,
-                second_order=watch.second_order,
-            )
-            if watch.enabled
-            else None,
             zones=True,
-            silent_robots=SilentRobotSettings(
-                gates=CircleGates(
-                    window=fit.window,
-                    min_samples=fit.min_samples,
-                    min_arc=fit.min_arc,
-                    max_residual=fit.max_residual,
-                    min_radius=fit.min_radius,
-                    max_radius=fit.max_radius,
-                ),
-                silent_steps=fit.silent_steps,
-                inferred_delta2=params.inferred_delta2,
-                beta2=self.beta2,
-                circle_margin=params.circle_margin,
-                silence_std=params.silence_std,
-                comm_range=self.config.comm_range,
-            ),
-            zone_motion=ZoneMotionSettings(
-                dt=self.config.dt,
-                accel_std=motion.accel_std,
-                speed_std=motion.speed_std,
-                mean_std=motion.mean_std,
-                max_std=motion.max_std,
-                refresh=motion.refresh,
-            )
-            if motion.enabled
-            else None,
+            silent_robots=CircleReading(beta2=self.beta2, circle_margin=self.params.circle_margin),
         )
 
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:

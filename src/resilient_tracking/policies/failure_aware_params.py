@@ -8,13 +8,9 @@ import numpy as np
 from pydantic import Field
 
 from resilient_tracking.spec import (
-    MAX_ACCEL,
     MAX_DURATION,
-    MAX_POSITION_STD,
-    MAX_RATIO,
     MAX_SPEED,
     MAX_STEP_COUNT,
-    MAX_UPDATE_ITERATIONS,
     Length,
     PositiveLength,
     PositiveWeight,
@@ -45,50 +41,6 @@ class WeightSet(Strict):
         return np.array(
             [self.track, self.effort, self.sensing_slack, self.comm_slack, self.clearance]
         )
-
-
-class CircleFitParams(Strict):
-    """Gates of EstimateCircleParameters (Alg. 3): when an observed path counts as a circle."""
-
-    window: int = Field(
-        40,
-        ge=5,
-        le=10_000,
-        description="Last observed positions of a silent robot used in the fit.",
-        json_schema_extra={"unit": "steps"},
-    )
-    min_samples: int = Field(
-        20,
-        ge=5,
-        le=10_000,
-        description="Fewest positions before a fit is accepted.",
-        json_schema_extra={"unit": "steps"},
-    )
-    min_arc: float = Field(
-        2.5,
-        gt=0,
-        le=6.2832,
-        description="Smallest arc of the circle the positions must cover.",
-        json_schema_extra={"unit": "rad"},
-    )
-    max_residual: PositiveLength = Field(
-        0.08,
-        description="Largest RMS radial residual of an accepted fit.",
-        json_schema_extra={"unit": "m"},
-    )
-    min_radius: PositiveLength = Field(
-        0.2, description="Smallest plausible circle radius.", json_schema_extra={"unit": "m"}
-    )
-    max_radius: PositiveLength = Field(
-        5.0, description="Largest plausible circle radius.", json_schema_extra={"unit": "m"}
-    )
-    silent_steps: int = Field(
-        8,
-        ge=1,
-        le=MAX_STEP_COUNT,
-        description="Steps without any working link before a teammate is watched.",
-        json_schema_extra={"unit": "steps"},
-    )
 
 
 class LureGuardParams(Strict):
@@ -233,168 +185,6 @@ class QuarantineParams(Strict):
     )
 
 
-class DegradationWatchParams(Strict):
-    """Finding a robot's silently degraded sensor from its own measurements and adapting to it
-    (the ``degradation_watch`` of the failure-aware policy, docs/model.md §6.4)."""
-
-    enabled: bool = Field(
-        False,
-        description=(
-            "Beyond the paper: check each robot's measurements against its league's predicted"
-            " estimate (NIS, CUSUM); a robot found degraded has its noise re-estimated and used"
-            " by the filter, counts as partly attacked in the adaptive weights (1 − 1/λ̂ of a"
-            " robot) and learns a sensing zone where it was found, shared with its league."
-            " false, the default: the paper's team."
-        ),
-    )
-    design_factor: float = Field(
-        2.0,
-        gt=1,
-        le=MAX_RATIO,
-        description=(
-            "Noise standard-deviation factor the CUSUM is tuned to: the alternative hypothesis"
-            " of its log-likelihood ratio (the noise variance times its square)."
-        ),
-        json_schema_extra={"unit": "ratio"},
-    )
-    threshold: float = Field(
-        20.0,
-        gt=0,
-        le=MAX_RATIO,
-        description=(
-            "CUSUM threshold, a log-likelihood ratio: larger means fewer false alarms and later"
-            " detections."
-        ),
-    )
-    warmup: int = Field(
-        30,
-        ge=0,
-        le=MAX_STEP_COUNT,
-        description=(
-            "Steps from the first tick before the CUSUM starts: the filter first settles from"
-            " its wide initial prior."
-        ),
-        json_schema_extra={"unit": "steps"},
-    )
-    nis_cap: float = Field(
-        20.0,
-        gt=0,
-        le=MAX_RATIO,
-        description=(
-            "Cap on one measurement's normalised innovation squared in the CUSUM, so one outlier"
-            " adds a bounded amount."
-        ),
-    )
-    memory: float = Field(
-        30.0,
-        ge=1,
-        le=MAX_STEP_COUNT,
-        description="Steps over which a degraded sensor's noise estimate forgets (exponentially).",
-        json_schema_extra={"unit": "steps"},
-    )
-    max_factor: float = Field(
-        20.0,
-        ge=1,
-        le=MAX_RATIO,
-        description="Largest noise standard-deviation factor estimated.",
-        json_schema_extra={"unit": "ratio"},
-    )
-    zone_radius: PositiveLength = Field(
-        0.5,
-        description="Radius of the sensing zone learned where a degradation is found.",
-        json_schema_extra={"unit": "m"},
-    )
-    zone_std: float = Field(
-        0.5,
-        gt=0,
-        le=MAX_POSITION_STD,
-        description="Spread of the centre of the zone learned where a degradation is found.",
-        json_schema_extra={"unit": "m"},
-    )
-    update_iterations: int = Field(
-        5,
-        ge=1,
-        le=MAX_UPDATE_ITERATIONS,
-        description=(
-            "Linearisations per measurement update of a league with a robot found degraded (the"
-            " iterated EKF: each at the last one's result); 1: the estimator's own update."
-        ),
-        json_schema_extra={"unit": "count"},
-    )
-    second_order: bool = Field(
-        True,
-        description=(
-            "Whether that update's noise carries each channel's second-order term, so a large"
-            " noise next to a target does not make the update overconfident."
-        ),
-    )
-
-
-class ZoneMotionParams(Strict):
-    """Zone estimates that age and move (the ``zone_motion`` of the failure-aware policy,
-    docs/model.md §6.3): a nearly-constant-velocity Kalman filter per identified zone, fed with
-    the means of successive clues."""
-
-    enabled: bool = Field(
-        False,
-        description=(
-            "Beyond the paper: each identified zone's clues feed a filter of its mean and"
-            " velocity; the team plans against the zone predicted at plan time, its spread"
-            " grown by the filter's position uncertainty. false, the default: zone estimates"
-            " stay where they were learned (the paper's team)."
-        ),
-    )
-    accel_std: float = Field(
-        0.02,
-        ge=0,
-        le=MAX_ACCEL,
-        description=(
-            "Process noise: white-noise acceleration of the nearly-constant-velocity model"
-            " (spectral density accel_std²)."
-        ),
-        json_schema_extra={"unit": "m/s²"},
-    )
-    speed_std: float = Field(
-        0.02,
-        ge=0,
-        le=MAX_SPEED,
-        description=(
-            "Prior standard deviation of a zone's velocity (each axis) before its second clue:"
-            " how fast the knowledge of a zone seen once grows uncertain."
-        ),
-        json_schema_extra={"unit": "m/s"},
-    )
-    mean_std: float = Field(
-        0.05,
-        gt=0,
-        le=MAX_POSITION_STD,
-        description=(
-            "Measurement noise of a clue's mean (a clue gives the zone's prior mean as it is at"
-            " the attack; its covariance is the zone's own spread, kept apart)."
-        ),
-        json_schema_extra={"unit": "m"},
-    )
-    max_std: float = Field(
-        1.0,
-        ge=0,
-        le=MAX_POSITION_STD,
-        description=(
-            "Cap on the standard deviation (largest axis) the filter adds to a zone's spread;"
-            " 0: no cap."
-        ),
-        json_schema_extra={"unit": "m"},
-    )
-    refresh: Length = Field(
-        0.1,
-        description=(
-            "Distance the predicted zone (its mean, or its largest standard deviation) moves"
-            " before the team replans around the new prediction; keeps zone rows and route"
-            " maps from being rebuilt every step. 0: every step."
-        ),
-        json_schema_extra={"unit": "m"},
-    )
-
-
 class FailureAwareParams(Strict):
     """Algorithm 1 with adaptive weights, cool-down, circular evasion and circle inference."""
 
@@ -462,10 +252,6 @@ class FailureAwareParams(Strict):
         ),
         json_schema_extra={"unit": "turns"},
     )
-    circle_fit: CircleFitParams = Field(
-        CircleFitParams(),
-        description="When a silent robot's observed path counts as a circle (Alg. 3).",
-    )
     guard_temporary_jammers: bool = Field(
         True,
         description=(
@@ -498,25 +284,6 @@ class FailureAwareParams(Strict):
         ),
         json_schema_extra={"unit": "steps"},
     )
-    inferred_delta2: float = Field(
-        0.3,
-        gt=0,
-        le=MAX_RATIO,
-        description=(
-            "Jammer strength assumed for a comm zone inferred from a circle (its δ2 is not seen)."
-        ),
-        json_schema_extra={"unit": "ratio"},
-    )
-    silence_std: float = Field(
-        0.3,
-        ge=0,
-        le=MAX_POSITION_STD,
-        description=(
-            "Spread of the provisional comm zone put where a teammate fell silent, until a circle"
-            " fit replaces it; 0 turns it off."
-        ),
-        json_schema_extra={"unit": "m"},
-    )
     lure_guard: bool = Field(
         False,
         description=(
@@ -544,19 +311,4 @@ class FailureAwareParams(Strict):
     quarantine_keep_out: QuarantineParams = Field(
         QuarantineParams(),
         description="How long a quarantine lasts and how far robots keep from a quarantined robot.",
-    )
-    zone_motion: ZoneMotionParams = Field(
-        ZoneMotionParams(),
-        description=(
-            "Beyond the paper: zone estimates that move with a velocity estimated from"
-            " successive clues and grow uncertain with time since the last one"
-            " (docs/model.md §6.3); off by default."
-        ),
-    )
-    degradation_watch: DegradationWatchParams = Field(
-        DegradationWatchParams(),
-        description=(
-            "Beyond the paper: find silently degraded sensors and adapt to them (enabled: false,"
-            " the default, is the paper's team; docs/model.md §6.4)."
-        ),
     )

@@ -15,6 +15,7 @@ from pydantic import (
     model_validator,
 )
 
+from resilient_tracking.belief.settings import BeliefSettings
 from resilient_tracking.models.sensor import SENSORS, RangeBearingSpec
 from resilient_tracking.planning.spec import PlannerSpec
 from resilient_tracking.scenario.adversarial import Lure
@@ -150,6 +151,13 @@ class Scenario(Strict):
     )
     policy: PolicySpec = Field(
         PolicySpec(), description="The policy the team uses and its parameters."
+    )
+    belief: BeliefSettings = Field(
+        BeliefSettings(),
+        description=(
+            "The team's belief: how it reads silent teammates (Alg. 3) and its features beyond"
+            " the paper (zone motion, the degradation watch)."
+        ),
     )
     planner: PlannerSpec = Field(PlannerSpec(), description="How the league problems are solved.")
 

@@ -45,7 +45,8 @@ DEFAULT_TEAM = "default"
 _PAPER = {
     "planner.program": "one_step",
     "policy.failure_aware.hazard_guard": False,
-    "policy.failure_aware.silence_std": 0.3,
+    "belief.provisional_zone.enabled": True,
+    "belief.provisional_zone.std": 0.3,
 }
 
 #: The adaptive estimator, which learns each target's process noise (docs/model.md §4.2).
@@ -55,8 +56,8 @@ _ADVERSARIAL = {"estimator.type": "adaptive"}
 _BEYOND = {
     "policy.failure_aware.quarantine": True,
     "policy.failure_aware.signal_turns": 1.0,
-    "policy.failure_aware.degradation_watch.enabled": True,
-    "policy.failure_aware.zone_motion.enabled": True,
+    "belief.degradation_watch.enabled": True,
+    "belief.zone_motion.enabled": True,
 }
 
 #: Every named team, in the order ``rtrack teams`` lists them.
