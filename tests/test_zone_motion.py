@@ -170,9 +170,7 @@ def run_team(zone_motion: dict[str, Any] | None, steps: int = 30):
     rows of each league plan."""
     s = shipped("sensing-perm")
     if zone_motion is not None:
-        s = overridden(
-            s, {f"belief.zone_motion.{k}": v for k, v in zone_motion.items()}
-        )
+        s = overridden(s, {f"belief.zone_motion.{k}": v for k, v in zone_motion.items()})
     team = Team.from_scenario(s, np.zeros((3, 4)))
     rows: list[tuple[int, np.ndarray]] = []
     solve = team.policy.solve  # type: ignore[attr-defined]
