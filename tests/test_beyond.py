@@ -157,12 +157,11 @@ def test_beyond_experiment_runs_three_teams_on_the_shipped_scenarios_and_the_sui
         assert teams["vanilla"].policy == "vanilla" and not teams["default"].overrides
         assert teams["beyond"].overrides == get_team("beyond").settings
         arm = next(t for t in every if t.variant == teams["beyond"])
-        params = arm.scenario.policy.params_for("failure_aware")
-        assert params.quarantine is True
+        assert {"quarantine", "signal_turns"} <= set(arm.scenario.guards.enabled())
         belief = arm.scenario.belief
         assert belief.degradation_watch.enabled and belief.zone_motion.enabled
         paper = next(t for t in every if t.variant == teams["default"])
-        assert paper.scenario.policy.params_for("failure_aware").quarantine is False
+        assert "quarantine" not in paper.scenario.guards.enabled()
     seeds = Counter(t.variant.tags["part"] for t in every)
     assert seeds == {"shipped": len(BEYOND) * 3 * 10, "suite": SUITE_SIZE * 3 * BEYOND_SUITE_SEEDS}
     quick = tasks(catalog(quick=True)["beyond"])

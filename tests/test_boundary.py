@@ -308,8 +308,8 @@ def spies(monkeypatch):
     found: list[_Spy] = []
     original = team_module.Team.__init__
 
-    def spying_init(self, policy, initial_estimate, estimator=None):
-        original(self, policy, initial_estimate, estimator)
+    def spying_init(self, policy, *args, **kwargs):
+        original(self, policy, *args, **kwargs)
         spy = _Spy(self.policy)
         found.append(spy)
         self.policy = spy  # type: ignore[assignment]

@@ -13,6 +13,7 @@ from resilient_tracking.build import team_config
 from resilient_tracking.planning.adaptation import adaptive_weights
 from resilient_tracking.policies import FailureAwarePolicy
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
+from resilient_tracking.policies.guards import ExposureGuard, GuardsSpec
 from resilient_tracking.scenario import parse_scenario
 from resilient_tracking.scenario.overrides import every_zone_known, overridden
 from resilient_tracking.sim.episode import initial_estimate, run_episode
@@ -20,6 +21,9 @@ from resilient_tracking.team import Team
 from resilient_tracking.world import World
 
 STILL = {"type": "constant_velocity", "velocity": [0.0, 0.0]}
+
+#: the guards on by default that the paper's team has not
+PAPER_OFF = ("comm_hazard", "last_sensors", "safe_circling")
 
 
 def scenario(**overrides: Any):
@@ -205,7 +209,7 @@ def test_permanent_comm_failure_circles_and_teammates_infer_the_zone():
 def test_with_signal_turns_a_robot_circles_its_attacker_once_then_tracks_alone():
     """The circle is the signal (Alg. 3 reads it); after one turn around the attacker the
     robot, whose sensor works, plans alone with its tracking term instead of circling on."""
-    s = overridden(circling_scenario(infer=True), {"policy.failure_aware.signal_turns": 1.0})
+    s = overridden(circling_scenario(infer=True), {"guards.signal_turns.enabled": True})
     result = run_episode(s, seed=1)
     events, robots = result["events"], result["robots"]
     hit = events[(events.event == "attack") & (events.robot == 0)]
@@ -231,7 +235,7 @@ def test_a_robot_whose_radio_a_known_zone_destroys_circles_it_too():
     s = circling_scenario(infer=False)
     s = every_zone_known(s)
     # the paper's constraint set: the league does not keep clear of the known zone's hazard
-    s = overridden(s, {"policy.failure_aware.hazard_guard": False})
+    s = overridden(s, {f"guards.{g}.enabled": False for g in PAPER_OFF})
     result = run_episode(s, seed=1)
     events, robots = result["events"], result["robots"]
     hit = events[(events.event == "attack") & (events.robot == 0)]
@@ -355,8 +359,11 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
         )
 
     s = scenario()
-    policy = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"))
-    fresh = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"))
+    exposure = GuardsSpec.model_validate({"exposure": {"enabled": True}})
+    policy = FailureAwarePolicy(
+        team_config(s), s.policy.params_for("failure_aware"), None, exposure
+    )
+    fresh = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"), None, exposure)
     knowledge = KnowledgeBase()
     knowledge.learn(zone("zone0", "sensing", 1.0))
     knowledge.learn(zone("zone1", "comm", 2.0))
@@ -368,7 +375,9 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
         for got, want in zip(rows, expected, strict=True):
             np.testing.assert_array_equal(got, want)
         rows[0][:] = -1.0  # a caller's change must not reach the next call
-    policy.exposure.steps["zone0"] = fresh.exposure.steps["zone0"] = 1000
+    for p in (policy, fresh):
+        ledger = next(g for g in p.guards if isinstance(g, ExposureGuard)).ledger
+        ledger.steps["zone0"] = 1000
     rows = policy._zone_rows(knowledge, 0.2, True, 0.01)  # exposure changed: new rows
     np.testing.assert_array_equal(rows[0], fresh._make_zone_rows(knowledge, 0.2, True, 0.01)[0])
     knowledge.learn(zone("zone2", "sensing", 3.0))
@@ -388,8 +397,9 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
 
 @pytest.mark.parametrize("guard", [True, False])
 def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
-    """``guard_temporary_jammers`` (default on, the paper's eq. 7d for every known comm zone)
-    drops only the rows of comm zones known to be temporary, and only for leagues."""
+    """Without the ``ignore_temporary_jammers`` guard (the default: the paper's eq. 7d for every
+    known comm zone) every comm zone keeps its eq. 7d rows; with it only those known to be
+    temporary are dropped, and only for leagues."""
     from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 
     def comm(key: str, persistence: str, x: float) -> ZoneEstimate:
@@ -398,10 +408,9 @@ def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
         )
 
     s = scenario()
-    params = s.policy.params_for("failure_aware").model_copy(
-        update={"guard_temporary_jammers": guard}
-    )
-    policy = FailureAwarePolicy(team_config(s), params)
+    params = s.policy.params_for("failure_aware")
+    guards = GuardsSpec.model_validate({"ignore_temporary_jammers": {"enabled": not guard}})
+    policy = FailureAwarePolicy(team_config(s), params, None, guards)
     knowledge = KnowledgeBase()
     for key, persistence, x in [
         ("a", "temporary", 1.0),
@@ -418,13 +427,15 @@ def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
 
 @pytest.mark.parametrize("guard", [True, False])
 def test_the_hazard_guard_keeps_a_league_off_known_comm_zones_and_spares_the_last_sensors(guard):
-    """With ``hazard_guard`` a league gets an eq. 7c disc around each known comm zone besides
-    eq. 7d, and β1 grows as sensors are lost; without it, the paper's constraint set."""
+    """With the ``comm_hazard`` guard a league gets an eq. 7c disc around each known comm zone
+    besides eq. 7d, and with ``last_sensors`` β1 grows as sensors are lost; without them, the
+    paper's constraint set."""
     from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 
     s = scenario()
-    params = s.policy.params_for("failure_aware").model_copy(update={"hazard_guard": guard})
-    policy = FailureAwarePolicy(team_config(s), params)
+    params = s.policy.params_for("failure_aware")
+    guards = GuardsSpec.model_validate({g: {"enabled": guard} for g in PAPER_OFF})
+    policy = FailureAwarePolicy(team_config(s), params, None, guards)
     knowledge = KnowledgeBase()
     knowledge.learn(
         ZoneEstimate(
@@ -448,10 +459,10 @@ def test_the_hazard_guard_keeps_a_league_off_known_comm_zones_and_spares_the_las
 
 
 def test_a_circling_robot_turns_back_at_a_known_sensing_zone():
-    """With the hazard guard a robot circling its comm attacker (Alg. 4) that still senses does
-    not fly its circle into a known sensing zone's keep-out disc: it turns back there."""
+    """With the ``safe_circling`` guard a robot circling its comm attacker (Alg. 4) that still
+    senses does not fly its circle into a known sensing zone's keep-out disc: it turns back."""
     from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
-    from resilient_tracking.policies.failure_aware import _enters
+    from resilient_tracking.policies.guards.safe_circling import enters as _enters
 
     s = scenario()
     policy = FailureAwarePolicy(team_config(s), s.policy.params_for("failure_aware"))
@@ -474,7 +485,7 @@ def test_exposure_halves_a_zones_risk_level_each_time_it_doubles():
     changes it."""
     from resilient_tracking.planning.adaptation import chance_margin
     from resilient_tracking.planning.layout import sensing_row, sensing_table
-    from resilient_tracking.policies.exposure import ExposureLedger
+    from resilient_tracking.policies.guards.exposure import ExposureLedger
 
     ledger = ExposureLedger(horizon=10)
     rows = sensing_table([sensing_row([0.0, 0.0], 0.1 * np.eye(2), r_safe=0.5, beta=1.0)])
@@ -485,7 +496,7 @@ def test_exposure_halves_a_zones_risk_level_each_time_it_doubles():
         levels.append(ledger.level("z"))
     assert ledger.steps == {"z": 70}  # the far robot adds nothing
     assert [levels.index(k) + 1 for k in (1, 2, 3)] == [10, 30, 70]
-    assert ledger.margin(0.02, "z") == pytest.approx(chance_margin(0.02 / 8))
+    assert chance_margin(ledger.risk(0.02, "z")) == pytest.approx(chance_margin(0.02 / 8))
     off = ExposureLedger(horizon=0)
     off.record(["z"], rows, near)
-    assert off.level("z") == 0 and off.margin(0.02, "z") == pytest.approx(chance_margin(0.02))
+    assert off.level("z") == 0 and off.risk(0.02, "z") == 0.02

@@ -450,7 +450,7 @@ def test_a_missing_file_is_named_and_run_writes_nothing(tmp_path):
 )
 def test_numbers_are_strict(path, value):
     data = copy.deepcopy(BASE_DATA["combined-temp"])
-    data["policy"]["failure_aware"] = {"cooldown_steps": 10}
+    data["policy"] = {"failure_aware": {"cooldown_steps": 10}}
     put(data, path, value)
     with pytest.raises(ScenarioError) as err:
         parse_scenario(data)

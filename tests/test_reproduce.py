@@ -259,12 +259,12 @@ def test_adversarial_experiment_runs_three_teams_on_each_scenario_and_the_guard_
         assert teams["vanilla"].policy == "vanilla" and not teams["default"].overrides
         extended = arms[teams["adversarial"].label]
         assert extended.estimator.type == "adaptive"
-        assert not extended.policy.params_for("failure_aware").lure_guard  # type: ignore[attr-defined]
+        assert "lure" not in extended.guards.enabled()
         assert scenario.estimator.type == "ekf"
         if lures:
             guarded = arms[teams["guarded"].label]
             assert guarded.estimator.type == "adaptive"
-            assert guarded.policy.params_for("failure_aware").lure_guard  # type: ignore[attr-defined]
+            assert "lure" in guarded.guards.enabled()
     assert {v.max_seeds for _, variants in suite for v in variants} == {ADVERSARIAL_SUITE_SEEDS}
     assert {v.tags["part"] for _, variants in suite for v in variants} == {"suite"}
 

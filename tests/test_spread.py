@@ -11,8 +11,7 @@ import pytest
 
 from helpers import shipped
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
-from resilient_tracking.policies.failure_aware_params import QuarantineParams
-from resilient_tracking.policies.quarantine import QuarantineWatch
+from resilient_tracking.policies.guards.quarantine import QuarantineParams, QuarantineWatch
 from resilient_tracking.scenario import ScenarioError, overridden, parse_scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.world import World
@@ -234,7 +233,7 @@ def infections(scenario: Any, seeds: range) -> int:
 @pytest.mark.slow
 def test_quarantine_reduces_infections_on_comm_spread() -> None:
     scenario = shipped("comm-spread").with_overrides(steps=160)
-    guarded = overridden(scenario, {"policy.failure_aware.quarantine": True})
+    guarded = overridden(scenario, {"guards.quarantine.enabled": True})
     seeds = range(101, 106)
     plain, contained = infections(scenario, seeds), infections(guarded, seeds)
     assert plain >= 2 * len(seeds)

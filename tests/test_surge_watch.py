@@ -7,9 +7,9 @@ import numpy as np
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.planning.layout import sensing_table
-from resilient_tracking.policies.failure_aware_params import LureGuardParams
-from resilient_tracking.policies.surge_watch import SurgeWatch
-from resilient_tracking.policies.suspects import SuspectWatch
+from resilient_tracking.policies.guards.lure import LureGuardParams
+from resilient_tracking.policies.guards.surge_watch import SurgeWatch
+from resilient_tracking.policies.guards.suspects import SuspectWatch
 
 DT = 0.1
 PARAMS = LureGuardParams()

@@ -10,8 +10,8 @@ import pandas as pd
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.planning.layout import sensing_row, sensing_table
-from resilient_tracking.policies.failure_aware_params import LureGuardParams
-from resilient_tracking.policies.suspects import SuspectWatch
+from resilient_tracking.policies.guards.lure import LureGuardParams
+from resilient_tracking.policies.guards.suspects import SuspectWatch
 from resilient_tracking.scenario import parse_scenario
 from resilient_tracking.sim.episode import run_episode
 
@@ -87,7 +87,7 @@ def test_suspicion_lasts_and_each_league_keeps_its_own():
 # ---------------------------------------------------------------------------- episodes
 
 
-def stopping_target_scenario(**policy: Any):
+def stopping_target_scenario(**lure: Any):
     """A target that walks 1.5 m east and stops; robots start near it."""
     return parse_scenario(
         {
@@ -104,7 +104,7 @@ def stopping_target_scenario(**policy: Any):
                 }
             ],
             "zones": [],
-            "policy": {"name": "failure_aware", "params": policy},
+            "guards": {"lure": lure},
         }
     )
 
@@ -122,7 +122,7 @@ def closest_approach(result, after: int) -> float:
 
 def test_with_the_lure_guard_robots_keep_their_standoff_from_a_suspect_target():
     standoff = LureGuardParams().standoff
-    guarded = run_episode(stopping_target_scenario(lure_guard=True))
+    guarded = run_episode(stopping_target_scenario(enabled=True))
     plain = run_episode(stopping_target_scenario())
     events = guarded["events"]
     suspected = events[events.event == "target_suspected"]
@@ -134,6 +134,6 @@ def test_with_the_lure_guard_robots_keep_their_standoff_from_a_suspect_target():
 
 def test_lure_guard_off_leaves_the_episode_unchanged():
     base = run_episode(stopping_target_scenario())
-    tuned = run_episode(stopping_target_scenario(lure={"standoff": 3.0, "linger_steps": 1}))
+    tuned = run_episode(stopping_target_scenario(standoff=3.0, linger_steps=1))
     for name in ("robots", "targets", "events"):
         pd.testing.assert_frame_equal(base[name], tuned[name])

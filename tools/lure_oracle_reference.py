@@ -30,15 +30,16 @@ from joblib import Parallel, delayed
 from resilient_tracking import scenarios
 from resilient_tracking.cli import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
-from resilient_tracking.policies.suspects import SuspectWatch
+from resilient_tracking.policies.guards.lure import LureGuard
+from resilient_tracking.policies.guards.suspects import SuspectWatch
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.scenario.teams import get_team
 from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world import World
 
-GUARD = "policy.failure_aware.lure_guard"
-STANDOFF = "policy.failure_aware.lure.standoff"
+GUARD = "guards.lure.enabled"
+STANDOFF = "guards.lure.standoff"
 #: the lure motion's modes per oracle: heading for the zone and holding there (a trip), and
 #: heading back to the base motion as well (a voyage)
 MODES = {"trip": ("go", "linger"), "voyage": ("go", "linger", "return")}
@@ -84,8 +85,9 @@ def run(
         settings |= {GUARD: True, STANDOFF: standoff}
     scenario = overridden(load_scenario(scenarios.resolve(name)), settings)
     stepper = EpisodeStepper(scenario, "failure_aware", seed)
-    watch = getattr(stepper.team.policy, "suspects", None)
-    if watch is not None:
+    lure = [g for g in getattr(stepper.team.policy, "guards", []) if isinstance(g, LureGuard)]
+    if lure:
+        watch = lure[0].suspects
         late = round(latency / scenario.dt)
         watch.observe = _oracle(watch, stepper.world, oracle, late)  # type: ignore[method-assign]
     for _ in range(scenario.steps):

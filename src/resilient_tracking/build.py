@@ -79,12 +79,14 @@ def make_policy(
     path ``package.module:Class``; an unknown one raises
     :class:`~resilient_tracking.registry.UnknownName`. The parameters are
     ``scenario.policy.params_for(name)``. ``config`` defaults to the scenario's team;
-    ``planner`` replaces the scenario's :class:`LeaguePlanner` (e.g. one with a fault hook).
+    ``planner`` replaces the scenario's :class:`LeaguePlanner` (e.g. one with a fault hook);
+    the scenario's ``guards`` go to a policy that uses them.
     """
     cls = POLICIES.get(name)
     config = config or team_config(scenario)
     params: Any = scenario.policy.params_for(name)
-    return cls.build(config, params, planner or LeaguePlanner.from_spec(scenario.planner))
+    planner = planner or LeaguePlanner.from_spec(scenario.planner)
+    return cls.build(config, params, planner, scenario.guards)
 
 
 def zone_map(scenario: Scenario) -> list[ZoneEstimate]:

@@ -156,7 +156,8 @@ def _factory(policy: PolicyLike, scenario: Scenario) -> tuple[Callable[[], Polic
 
         config = team_config(scenario)
         params = scenario.policy.params_for(cls.name, cls.Params)
-        return cls.build(config, params, LeaguePlanner.from_spec(scenario.planner))
+        planner = LeaguePlanner.from_spec(scenario.planner)
+        return cls.build(config, params, planner, scenario.guards)
 
     return build, cls.name
 

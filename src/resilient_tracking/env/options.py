@@ -22,11 +22,16 @@ def make_session(
     max_zones: int = MAX_ZONES,
     reward: Callable[[StepOutcome], float] | None = None,
     record: bool = True,
+    team: str | None = None,
 ) -> TrackingSession:
     """A session of ``scenario`` (a shipped name, a file or a loaded scenario), ``steps``
-    replacing the scenario's number of steps when given; ``record=False`` keeps no run tables
-    (faster; the session then has no ``result`` and the environment does not render)."""
+    replacing the scenario's number of steps when given, run by the named ``team`` when given
+    (its belief, and the expert's policy settings; ``rtrack teams`` lists them);
+    ``record=False`` keeps no run tables (faster; the session then has no ``result`` and the
+    environment does not render)."""
     loaded = scenario if isinstance(scenario, Scenario) else scenarios.load(scenario)
+    if team is not None:
+        loaded = loaded.with_team(team)
     if steps is not None:
         loaded = loaded.with_overrides(steps=steps)
     return TrackingSession(loaded, expert=expert, max_zones=max_zones, reward=reward, record=record)

@@ -30,6 +30,7 @@ from resilient_tracking.team_config import TeamConfig
 
 if TYPE_CHECKING:
     from resilient_tracking.planning.planner import LeaguePlanner, PlanResult
+    from resilient_tracking.policies.guards.settings import GuardsSpec
 
 
 @dataclass
@@ -84,10 +85,15 @@ class Policy(ABC):
 
     @classmethod
     def build(
-        cls, config: TeamConfig, params: BaseModel, planner: LeaguePlanner | None = None
+        cls,
+        config: TeamConfig,
+        params: BaseModel,
+        planner: LeaguePlanner | None = None,
+        guards: GuardsSpec | None = None,
     ) -> Policy:
         """The policy for a team, as :func:`make_policy` makes it; ``planner`` is the scenario's
-        league planner, ignored by policies that do not plan with it."""
+        league planner and ``guards`` its guards' settings, ignored by policies that do not
+        plan with them (only the failure-aware policy uses guards)."""
         return cls(config, params)
 
     @abstractmethod

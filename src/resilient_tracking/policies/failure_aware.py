@@ -20,9 +20,10 @@ robots circle (:meth:`FailureAwarePolicy.belief_needs`).
 
 from __future__ import annotations
 
-import math
+from typing import cast
 
 import numpy as np
+from pydantic import BaseModel
 
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.belief.needs import BeliefNeeds, CircleReading
@@ -31,20 +32,16 @@ from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import adaptive_weights, chance_margin
 from resilient_tracking.planning.evasion import circle_velocity, evasion_radius
 from resilient_tracking.planning.layout import (
-    SensingRow,
     comm_row,
     comm_table,
     sensing_row,
     sensing_table,
 )
-from resilient_tracking.planning.margins import keep_out_values
 from resilient_tracking.planning.planner import LeaguePlanner
-from resilient_tracking.policies.base import Decision, register_policy
-from resilient_tracking.policies.exposure import ExposureLedger
+from resilient_tracking.policies.base import Decision, Policy, register_policy
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
+from resilient_tracking.policies.guards import Guard, GuardsSpec
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
-from resilient_tracking.policies.quarantine import QuarantineWatch
-from resilient_tracking.policies.suspects import SuspectWatch
 from resilient_tracking.team_config import TeamConfig
 
 #: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``),
@@ -66,10 +63,14 @@ class FailureAwarePolicy(PlanningPolicy):
         config: TeamConfig,
         params: FailureAwareParams,
         planner: LeaguePlanner | None = None,
+        guards: GuardsSpec | None = None,
     ):
         super().__init__(config, params, planner)
         self.beta1 = chance_margin(params.eps1)
         self.beta2 = chance_margin(params.eps2)
+        #: the mechanisms beyond the paper this team uses (:mod:`~.guards`; the defaults' when
+        #: ``guards`` is ``None``)
+        self.guards: list[Guard] = (guards or GuardsSpec()).build(config, params)
         #: the team is in cool-down while ``step < cooldown_until``
         self.cooldown_until = -1
         #: the weights used at the last tick, ``[w1..w5]`` per robot (for inspection and tests)
@@ -78,22 +79,21 @@ class FailureAwarePolicy(PlanningPolicy):
         self._weights: dict[tuple[bool, bool, float, int], np.ndarray] = {}
         #: the last zone rows made: the zones they came from, what else they depend on, the rows
         self._last_rows: tuple[tuple[ZoneEstimate, ...], tuple[object, ...], ZoneRows] | None = None
-        #: robot-steps spent near each known zone (with ``hazard_guard``)
-        self.exposure = ExposureLedger(params.exposure_horizon if params.hazard_guard else 0)
+        #: ``β`` of each risk level, computed once
+        self._margins: dict[float, float] = {}
         #: circling direction (1 counter-clockwise, −1 clockwise) of each robot in Alg. 4
         self._circling: dict[int, float] = {}
-        #: per robot signalling its attacker: its last angle around it and the angle swept
-        self._swept: dict[int, tuple[float, float]] = {}
-        #: targets each robot suspects of luring it into danger (with ``lure_guard``)
-        self.suspects = (
-            SuspectWatch(config.n_robots, params.lure, config.dt) if params.lure_guard else None
-        )
-        #: teammates known to carry a compromise, kept out of radio range (with ``quarantine``)
-        self.quarantine = (
-            QuarantineWatch(config.n_robots, params.quarantine_keep_out, config.comm_range)
-            if params.quarantine
-            else None
-        )
+
+    @classmethod
+    def build(
+        cls,
+        config: TeamConfig,
+        params: BaseModel,
+        planner: LeaguePlanner | None = None,
+        guards: GuardsSpec | None = None,
+    ) -> Policy:
+        """The policy with the scenario's league planner and guards."""
+        return cls(config, cast(FailureAwareParams, params), planner, guards)
 
     # ------------------------------------------------------------------ the tick
 
@@ -118,19 +118,19 @@ class FailureAwarePolicy(PlanningPolicy):
         if watch is not None:  # a degraded sensor counts as part of an attacked robot
             attacked += round(float(watch.attacked_fraction()[working].sum()), 2)
         eps_sensing = self._sensing_risk(int(np.count_nonzero(obs.sensing_ok)), m)
-        if self.quarantine is not None:
-            self.quarantine.observe(obs)
+        for guard in self.guards:
+            guard.observe(obs)
 
         for k in self.planning_order(belief.leagues):
             robots = belief.leagues[k]
             # with zone motion, the zones as predicted at the planned step (x⁺)
             knowledge = belief.plan_knowledge(robots, obs.step + 1)
-            # a robot whose radio is destroyed circles its attacker (Alg. 4), with signal_turns
-            # only until the signal is given; then it tracks alone
+            # a robot whose radio is destroyed circles its attacker (Alg. 4), until a guard
+            # says the signal is given; then it tracks alone
             if (
                 len(robots) == 1
                 and obs.comm_persistence[robots[0]] == "permanent"
-                and not self._signalled(robots[0], knowledge, obs)
+                and not self._stops_circling(robots[0], knowledge, obs)
             ):
                 self._circle(robots[0], knowledge, obs, decision)
                 continue
@@ -138,18 +138,23 @@ class FailureAwarePolicy(PlanningPolicy):
             weights = self._situation_weights(cooling, alone, attacked, m)
             mode = "individual" if alone else "cooldown" if cooling else "league"
             rows = self._zone_rows(knowledge, weights[4], alone, eps_sensing)
-            self._record_exposure(rows, robots, obs)
+            table, _, keys, n_sensing = rows
+            for guard in self.guards:
+                guard.after_rows(keys, table, n_sensing, robots, obs)
             sensing_rows = rows[0]
-            if self.suspects is not None:
-                # keep clear of suspect targets as of zones (eq. 7c rows after the zones')
-                estimate = belief.estimates[k]
-                decision.events += self.suspects.observe(obs.step, robots, estimate, sensing_rows)
-                suspect_rows = self.suspects.rows(robots, belief.predicted(k), self.beta1)
-                sensing_rows = np.vstack([sensing_rows, suspect_rows])
-            if self.quarantine is not None:
-                # keep out of radio range of quarantined teammates (eq. 7c rows, last)
-                quarantine_rows = self.quarantine.rows(robots, obs, self.beta1)
-                sensing_rows = np.vstack([sensing_rows, quarantine_rows])
+            for guard in self.guards:  # the guards' own eq. 7c rows, after the zones'
+                own, events = guard.league_rows(
+                    obs.step,
+                    robots,
+                    belief.estimates[k],
+                    belief.predicted(k),
+                    rows[0],
+                    obs,
+                    self.beta1,
+                )
+                decision.events += events
+                if len(own):
+                    sensing_rows = np.vstack([sensing_rows, own])
             sensing = obs.sensing_ok[robots].astype(float)
             q = self.tracking_inputs(
                 belief, obs, robots, k, weights[:4], sensing, sensing_rows, rows[1]
@@ -176,32 +181,35 @@ class FailureAwarePolicy(PlanningPolicy):
         return self._weights[key].copy()
 
     def _sensing_risk(self, sensing: int, m: int) -> float:
-        """ε1 of eq. 7c; with ``hazard_guard``, ``ε1 · s/M`` for ``s`` of the ``M`` robots still
-        sensing (the last sensors are worth more: losing the last one leaves the team blind for
-        good)."""
-        if not self.params.hazard_guard or sensing >= m:
-            return self.params.eps1
-        return self.params.eps1 * max(sensing, 1) / m
+        """ε1 of the sensing zones' rows (eq. 7c), as the guards set it for ``sensing`` of the
+        team's ``m`` robots still sensing."""
+        eps = self.params.eps1
+        for guard in self.guards:
+            eps = guard.sensing_risk(eps, sensing, m)
+        return eps
+
+    def _margin(self, eps: float, zone: ZoneEstimate) -> float:
+        """``β`` of ``zone``'s keep-out row at base risk level ``eps``, as the guards set it."""
+        for guard in self.guards:
+            eps = guard.zone_risk(eps, zone)
+        if eps not in self._margins:
+            self._margins[eps] = chance_margin(eps)
+        return self._margins[eps]
 
     def _zone_rows(
         self, knowledge: KnowledgeBase, w5: float, alone: bool, eps_sensing: float
     ) -> ZoneRows:
         """Parameter rows of the known zones (eqs. 7c, 7d with ``r_safe = r + w5``); the last
         tick's rows again when the zones (immutable estimates), ``w5``, ``alone``, the sensing
-        risk level and the exposure levels are.
+        risk level and what the guards' rows depend on are.
 
         A robot alone has no teammate to be jammed from; it keeps clear of known comm zones as
-        of disks of radius ``comm_clearance`` (plus any observed clearance) instead. With
-        ``hazard_guard``, league robots keep clear of that disc (plus ``w5``) too, besides eq. 7d,
-        around every comm zone not known to be temporary, at the sensing zones' risk level
-        ``ε1``: its hazard can destroy a radio whatever the links (a temporary one costs an
-        outage, which eq. 7d and the cool-down already weigh); and each zone's risk level
-        halves as the team's exposure to it grows (:mod:`~resilient_tracking.policies.exposure`).
-        With ``guard_temporary_jammers`` off, a league has no eq. 7d rows for comm zones known to
-        be temporary.
+        of disks of radius ``comm_clearance`` (plus any observed clearance) instead. Guards may
+        set the risk levels, add a keep-out disc around a comm zone's hazard, or drop a comm
+        zone's eq. 7d rows (:class:`~.guards.base.Guard`).
         """
         zones = tuple(knowledge.zones.values())
-        levels = tuple(self.exposure.level(z.key) for z in zones)
+        levels = tuple(guard.rows_state(zones) for guard in self.guards)
         last = self._last_rows
         if (
             last is None
@@ -217,18 +225,16 @@ class FailureAwarePolicy(PlanningPolicy):
     def _make_zone_rows(
         self, knowledge: KnowledgeBase, w5: float, alone: bool, eps_sensing: float
     ) -> ZoneRows:
-        guard = self.params.hazard_guard
-        margin = self.exposure.margin if guard else lambda eps, key: chance_margin(eps)
         keys, rows_s = [], []
         for z in knowledge.of_kind("sensing"):
-            beta = margin(eps_sensing, z.key)
+            beta = self._margin(eps_sensing, z)
             rows_s.append(sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=beta))
             keys.append(z.key)
         n_sensing = len(rows_s)
         rows_c = []
         for z in knowledge.of_kind("comm"):
-            hazard = guard and z.persistence != "temporary"
-            beta = margin(self.params.eps1, z.key) if hazard else self.beta2
+            hazard = any(guard.guards_hazard(z) for guard in self.guards)
+            beta = self._margin(self.params.eps1, z) if hazard else self.beta2
             if alone:
                 radius = self.params.comm_clearance + z.clearance
                 rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=beta))
@@ -238,20 +244,11 @@ class FailureAwarePolicy(PlanningPolicy):
                 radius = self.params.comm_clearance + w5 + z.clearance
                 rows_s.append(sensing_row(z.mean, z.cov, r_safe=radius, beta=beta))
                 keys.append(z.key)
-            if self.params.guard_temporary_jammers or z.persistence != "temporary":
+            if all(guard.guards_links(z) for guard in self.guards):
                 rows_c.append(
                     comm_row(z.mean, z.cov, z.size, beta=self.beta2, clearance=z.clearance)
                 )
         return sensing_table(rows_s), comm_table(rows_c), keys, n_sensing
-
-    def _record_exposure(self, rows: ZoneRows, robots: list[int], obs: TeamObservation) -> None:
-        """A step of exposure for each robot near a keep-out disc that can still harm it: a
-        sensing zone's while its sensor works, a comm zone's while its radio does."""
-        table, _, keys, n_sensing = rows
-        sensing = [i for i in robots if obs.sensing_ok[i]]
-        radio = [i for i in robots if obs.comm_ok[i]]
-        self.exposure.record(keys[:n_sensing], table[:n_sensing], obs.positions[sensing])
-        self.exposure.record(keys[n_sensing:], table[n_sensing:], obs.positions[radio])
 
     def _circle(
         self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation, decision: Decision
@@ -275,36 +272,25 @@ class FailureAwarePolicy(PlanningPolicy):
                 direction=direction,
             )
 
+        def keep_out() -> np.ndarray:  # the sensing zones' keep-out rows at ε1
+            table, _, _, n_sensing = self._make_zone_rows(knowledge, 0.0, True, self.params.eps1)
+            return table[:n_sensing]
+
         direction = self._circling.get(robot, 1.0)
         velocity = along(direction)
-        if self.params.hazard_guard and obs.sensing_ok[robot]:
-            # a circle that crosses a known sensing zone turns back at its keep-out disc, so
-            # the robot's sensor survives the signal (the arc still shows the circle)
-            table, _, _, n_sensing = self._make_zone_rows(knowledge, 0.0, True, self.params.eps1)
-            rows = table[:n_sensing]
-            if len(rows) and _enters(position, velocity * self.config.dt, rows):
-                direction = -direction
-                velocity = along(direction)
+        step = velocity * self.config.dt
+        if any([guard.turns_back(robot, obs, step, keep_out) for guard in self.guards]):
+            direction = -direction
+            velocity = along(direction)
         self._circling[robot] = direction
         lower, upper = self.config.velocity_bounds([robot], obs.positions)
         decision.controls[robot] = np.clip(velocity, lower[0], upper[0])
 
-    def _signalled(self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation) -> bool:
-        """Whether the robot has circled its attacker ``signal_turns`` times (never without
-        ``signal_turns``: the paper's robot circles for good); the angle it swept around the
-        attacker's estimate is summed tick by tick."""
-        turns = self.params.signal_turns
-        if turns is None:
-            return False
+    def _stops_circling(self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation) -> bool:
+        """Whether a guard says ``robot`` has given its signal (never without one: the paper's
+        robot circles for good); every guard is asked every tick."""
         attacker = self._attacker_estimate(knowledge)
-        if attacker is None:  # no clue of what hit it: nothing to signal
-            return True
-        offset = obs.positions[robot] - attacker.mean
-        angle = math.atan2(offset[1], offset[0])
-        last, swept = self._swept.get(robot, (angle, 0.0))
-        swept += abs(math.remainder(angle - last, math.tau))
-        self._swept[robot] = (angle, swept)
-        return swept >= turns * math.tau
+        return any([guard.stops_circling(robot, attacker, obs) for guard in self.guards])
 
     @staticmethod
     def _attacker_estimate(knowledge: KnowledgeBase) -> ZoneEstimate | None:
@@ -314,13 +300,3 @@ class FailureAwarePolicy(PlanningPolicy):
             if z.source == "attack" and z.persistence == "permanent"
         ]
         return max(clues, key=lambda z: z.learned_step) if clues else None
-
-
-def _enters(position: np.ndarray, step: np.ndarray, rows: np.ndarray) -> bool:
-    """Whether moving by ``step`` takes ``position`` into, or deeper into, a keep-out disc of
-    the sensing rows (eq. 7c's margin falls below zero and keeps falling)."""
-    gaussians = rows[:, SensingRow.GAUSSIAN]
-    offset, beta = rows[:, SensingRow.R_SAFE], rows[:, SensingRow.BETA]
-    now = keep_out_values(position, gaussians, offset, beta)
-    then = keep_out_values(position + step, gaussians, offset, beta)
-    return bool(np.any((then < 0) & (then < now)))

@@ -29,6 +29,7 @@ from resilient_tracking.planning.route import RouteMaps
 from resilient_tracking.planning.safe_action import safe_action
 from resilient_tracking.planning.spanning import spanning_unlinked
 from resilient_tracking.policies.base import Decision, Policy
+from resilient_tracking.policies.guards.settings import GuardsSpec
 from resilient_tracking.team_config import TeamConfig
 
 log = logging.getLogger(__name__)
@@ -51,9 +52,14 @@ class PlanningPolicy(Policy):
 
     @classmethod
     def build(
-        cls, config: TeamConfig, params: BaseModel, planner: LeaguePlanner | None = None
+        cls,
+        config: TeamConfig,
+        params: BaseModel,
+        planner: LeaguePlanner | None = None,
+        guards: GuardsSpec | None = None,
     ) -> Policy:
-        """The policy with the scenario's league planner."""
+        """The policy with the scenario's league planner (``guards`` are the failure-aware
+        policy's)."""
         return cls(config, params, planner)
 
     def planning_order(self, leagues: Sequence[Sequence[int]]) -> list[int]:

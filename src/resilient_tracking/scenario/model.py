@@ -18,6 +18,7 @@ from pydantic import (
 from resilient_tracking.belief.settings import BeliefSettings
 from resilient_tracking.models.sensor import SENSORS, RangeBearingSpec
 from resilient_tracking.planning.spec import PlannerSpec
+from resilient_tracking.policies.guards.settings import GuardsSpec
 from resilient_tracking.scenario.adversarial import Lure
 from resilient_tracking.scenario.base import (
     MAX_DT,
@@ -151,6 +152,13 @@ class Scenario(Strict):
     )
     policy: PolicySpec = Field(
         PolicySpec(), description="The policy the team uses and its parameters."
+    )
+    guards: GuardsSpec = Field(
+        GuardsSpec(),
+        description=(
+            "Settings of the failure-aware team's guards, the mechanisms beyond the paper, each"
+            " under its name with enabled: true or false (docs/model.md §6)."
+        ),
     )
     belief: BeliefSettings = Field(
         BeliefSettings(),

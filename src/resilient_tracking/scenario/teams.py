@@ -44,7 +44,9 @@ DEFAULT_TEAM = "default"
 #: teammate at the spread the paper's experiments are reproduced with (docs/model.md §10.1).
 _PAPER = {
     "planner.program": "one_step",
-    "policy.failure_aware.hazard_guard": False,
+    "guards.comm_hazard.enabled": False,
+    "guards.last_sensors.enabled": False,
+    "guards.safe_circling.enabled": False,
     "belief.provisional_zone.enabled": True,
     "belief.provisional_zone.std": 0.3,
 }
@@ -54,8 +56,9 @@ _ADVERSARIAL = {"estimator.type": "adaptive"}
 
 #: Every mechanism for the world's features beyond the paper (docs/beyond.md).
 _BEYOND = {
-    "policy.failure_aware.quarantine": True,
-    "policy.failure_aware.signal_turns": 1.0,
+    "guards.quarantine.enabled": True,
+    "guards.signal_turns.enabled": True,
+    "guards.signal_turns.turns": 1.0,
     "belief.degradation_watch.enabled": True,
     "belief.zone_motion.enabled": True,
 }
@@ -83,7 +86,7 @@ TEAMS: dict[str, NamedTeam] = {
         NamedTeam(
             "guarded",
             "the adversarial team with the lure guard, where targets may lure robots into danger",
-            _ADVERSARIAL | {"policy.failure_aware.lure_guard": True},
+            _ADVERSARIAL | {"guards.lure.enabled": True},
         ),
         NamedTeam(
             "beyond",

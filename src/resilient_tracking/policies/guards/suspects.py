@@ -3,7 +3,7 @@
 From the league's target estimate only (never the world), a target becomes suspect when
 
 * it **surges**: after keeping a steady course it speeds up well beyond its usual speed (a lure
-  leaving its route; :mod:`~resilient_tracking.policies.surge_watch`). This suspicion lasts
+  leaving its route; :mod:`~resilient_tracking.policies.guards.surge_watch`). This suspicion lasts
   until it is back at its usual speed;
 * it **lingers**: its speed over the last ``window`` ticks (how far the mean of its estimated
   positions in the window's second half lies from that of its first half, over the time between
@@ -25,13 +25,17 @@ which the route program's keep-out discs then include as well.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.events import Event
 from resilient_tracking.planning.layout import SensingRow, sensing_row, sensing_table
-from resilient_tracking.policies.failure_aware_params import LureGuardParams
-from resilient_tracking.policies.surge_watch import SurgeWatch
+from resilient_tracking.policies.guards.surge_watch import SurgeWatch
+
+if TYPE_CHECKING:
+    from resilient_tracking.policies.guards.lure import LureGuardParams
 
 
 class SuspectWatch:

@@ -25,9 +25,12 @@ route, stays suspect.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from resilient_tracking.policies.failure_aware_params import LureGuardParams
+if TYPE_CHECKING:
+    from resilient_tracking.policies.guards.lure import LureGuardParams
 
 
 class SurgeWatch:

@@ -19,17 +19,58 @@ from __future__ import annotations
 
 import functools
 import logging
+from typing import TYPE_CHECKING
 
 import numpy as np
+from pydantic import Field
 
+from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.layout import sensing_row, sensing_table
-from resilient_tracking.policies.failure_aware_params import QuarantineParams
+from resilient_tracking.policies.guards.base import Guard, GuardParams, register_guard
+from resilient_tracking.spec import MAX_STEP_COUNT, Length, PositiveLength
+from resilient_tracking.team_config import TeamConfig
+
+if TYPE_CHECKING:
+    from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 
 log = logging.getLogger(__name__)
 
 #: ``since`` value of a robot not known compromised
 UNKNOWN = -1
+
+
+class QuarantineParams(GuardParams):
+    """How long and how far robots keep out of radio range of a teammate known to carry a
+    compromise."""
+
+    steps: int = Field(
+        0,
+        ge=0,
+        le=MAX_STEP_COUNT,
+        description=(
+            "Steps a quarantine lasts from when the compromise became known; 0, the default:"
+            " the rest of the episode (a permanent compromise never heals)."
+        ),
+        json_schema_extra={"unit": "steps"},
+    )
+    margin: Length = Field(
+        0.3,
+        description=(
+            "Added to the team's radio range: the keep-out disc around a quarantined robot has"
+            " radius comm_range + margin."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
+    position_std: PositiveLength = Field(
+        0.05,
+        description=(
+            "Standard deviation given to a quarantined robot's observed position in its eq. 7c"
+            " row (it moves between ticks)."
+        ),
+        json_schema_extra={"unit": "m"},
+    )
 
 
 @functools.cache
@@ -92,3 +133,32 @@ class QuarantineWatch:
         return sensing_table(
             [sensing_row(obs.positions[q], cov, r_safe=self.radius, beta=beta) for q in quarantined]
         )
+
+
+@register_guard("quarantine")
+class QuarantineGuard(Guard):
+    """Keep out of radio range of teammates known compromised (module docstring)."""
+
+    name = "quarantine"
+    Params = QuarantineParams
+    params: QuarantineParams
+
+    def __init__(self, params: QuarantineParams, config: TeamConfig, method: FailureAwareParams):
+        super().__init__(params, config, method)
+        #: teammates known to carry a compromise, per robot
+        self.watch = QuarantineWatch(config.n_robots, params, config.comm_range)
+
+    def observe(self, obs: TeamObservation) -> None:
+        self.watch.observe(obs)
+
+    def league_rows(
+        self,
+        step: int,
+        robots: list[int],
+        estimate: TargetEstimate,
+        predicted: TargetEstimate,
+        zone_rows: np.ndarray,
+        obs: TeamObservation,
+        beta1: float,
+    ) -> tuple[np.ndarray, list[Event]]:
+        return self.watch.rows(robots, obs, beta1), []
