@@ -17,7 +17,15 @@ from typing import Any
 
 from resilient_tracking.scenario.paths import set_path
 
-__all__ = ["DEFAULT_TEAM", "NamedTeam", "TEAMS", "UnknownTeam", "get_team", "with_team_settings"]
+__all__ = [
+    "DEFAULT_TEAM",
+    "NamedTeam",
+    "TEAMS",
+    "UnknownTeam",
+    "get_team",
+    "team_listing",
+    "with_team_settings",
+]
 
 
 @dataclass(frozen=True)
@@ -116,6 +124,25 @@ def get_team(name: str) -> NamedTeam:
         raise UnknownTeam(
             f"unknown team {name!r}; choose from {', '.join(TEAMS)} (rtrack teams lists them)"
         ) from None
+
+
+def team_listing() -> str:
+    """Every team, one paragraph each: its name, its summary and the settings it fixes (what
+    ``rtrack teams`` prints)."""
+    blocks = []
+    for team in TEAMS.values():
+        lines = [f"{team.name}: {team.summary}"]
+        fixed = team.settings or {"": "nothing: the defaults"}
+        lines += [
+            f"    {path}: {value}" if path else f"    {value}" for path, value in fixed.items()
+        ]
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
+
+
+def _shown(value: Any) -> str:
+    """A setting's value as a scenario file writes it (``true``, not ``True``)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
 
 
 def with_team_settings(data: dict[str, Any], team: NamedTeam) -> dict[str, Any]:

@@ -30,4 +30,5 @@ class CommHazardGuard(Guard):
     Params = CommHazardParams
 
     def guards_hazard(self, zone: ZoneEstimate) -> bool:
+        """A comm zone not known to be temporary."""
         return zone.persistence != "temporary"

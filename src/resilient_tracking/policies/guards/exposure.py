@@ -101,9 +101,11 @@ class ExposureGuard(Guard):
         self.ledger = ExposureLedger(params.horizon)
 
     def zone_risk(self, eps: float, zone: ZoneEstimate) -> float:
+        """``eps`` halved once per doubling of the team's exposure to ``zone``."""
         return self.ledger.risk(eps, zone.key)
 
     def rows_state(self, zones: tuple[ZoneEstimate, ...]) -> Hashable:
+        """How many times each zone's risk level has halved."""
         return tuple(self.ledger.level(z.key) for z in zones)
 
     def after_rows(
@@ -114,6 +116,7 @@ class ExposureGuard(Guard):
         robots: list[int],
         obs: TeamObservation,
     ) -> None:
+        """Count a step of exposure for each robot near a disc that can still harm it."""
         # a sensing zone's disc harms a working sensor, a comm zone's a working radio
         sensing = [i for i in robots if obs.sensing_ok[i]]
         radio = [i for i in robots if obs.comm_ok[i]]

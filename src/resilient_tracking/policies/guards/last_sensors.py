@@ -26,6 +26,7 @@ class LastSensorsGuard(Guard):
     Params = LastSensorsParams
 
     def sensing_risk(self, eps: float, sensing: int, m: int) -> float:
+        """``eps · s/M`` while a sensor is lost."""
         if sensing >= m:
             return eps
         return eps * max(sensing, 1) / m

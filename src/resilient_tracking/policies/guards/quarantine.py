@@ -96,6 +96,7 @@ class QuarantineWatch:
         self._last_links = np.zeros((n_robots, n_robots), dtype=bool)
 
     def observe(self, obs: TeamObservation) -> None:
+        """Record this tick's announcements of compromised radios."""
         """Record this tick's announcements: a permanent comm failure (hazard or spread), heard
         by the robots linked to its victim at the tick before."""
         for attack in obs.attacks:
@@ -149,6 +150,7 @@ class QuarantineGuard(Guard):
         self.watch = QuarantineWatch(config.n_robots, params, config.comm_range)
 
     def observe(self, obs: TeamObservation) -> None:
+        """Record this tick's announcements of compromised radios."""
         self.watch.observe(obs)
 
     def league_rows(
@@ -161,4 +163,5 @@ class QuarantineGuard(Guard):
         obs: TeamObservation,
         beta1: float,
     ) -> tuple[np.ndarray, list[Event]]:
+        """A keep-out row per teammate the league keeps quarantined."""
         return self.watch.rows(robots, obs, beta1), []

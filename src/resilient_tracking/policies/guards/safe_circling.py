@@ -39,6 +39,7 @@ class SafeCirclingGuard(Guard):
         step: np.ndarray,
         keep_out: Callable[[], np.ndarray],
     ) -> bool:
+        """Turn back where the circle enters a keep-out disc, while the sensor works."""
         if not obs.sensing_ok[robot]:
             return False
         rows = keep_out()

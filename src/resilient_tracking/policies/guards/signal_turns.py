@@ -50,6 +50,7 @@ class SignalTurnsGuard(Guard):
     def stops_circling(
         self, robot: int, attacker: ZoneEstimate | None, obs: TeamObservation
     ) -> bool:
+        """Once the robot swept ``turns`` full turns around its attacker."""
         if attacker is None:  # no clue of what hit it: nothing to signal
             return True
         offset = obs.positions[robot] - attacker.mean

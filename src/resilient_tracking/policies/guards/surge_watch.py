@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from resilient_tracking.policies.guards.lure import LureGuardParams
+    from resilient_tracking.policies.guards.lure_params import LureGuardParams
 
 
 class SurgeWatch:

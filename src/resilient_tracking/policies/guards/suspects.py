@@ -35,7 +35,7 @@ from resilient_tracking.planning.layout import SensingRow, sensing_row, sensing_
 from resilient_tracking.policies.guards.surge_watch import SurgeWatch
 
 if TYPE_CHECKING:
-    from resilient_tracking.policies.guards.lure import LureGuardParams
+    from resilient_tracking.policies.guards.lure_params import LureGuardParams
 
 
 class SuspectWatch:

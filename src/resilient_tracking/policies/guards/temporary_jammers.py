@@ -19,4 +19,5 @@ class IgnoreTemporaryJammersGuard(Guard):
     Params = GuardParams
 
     def guards_links(self, zone: ZoneEstimate) -> bool:
+        """Not for a comm zone known to be temporary."""
         return zone.persistence != "temporary"
