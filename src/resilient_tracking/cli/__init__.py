@@ -852,6 +852,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {shown(err)}", file=sys.stderr)
         return 1
 
-
-if __name__ == "__main__":
-    sys.exit(main())
