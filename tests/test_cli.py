@@ -86,9 +86,10 @@ def test_run_writes_tables_manifest_and_figures(tmp_path, capsys):
 def test_library_warnings_are_shown_only_with_verbose():
     """A library's warning (joblib's "a worker stopped"…) is for developers: `-v` shows it."""
     code = (
-        "import sys, warnings; from resilient_tracking import cli; "
-        "cli.cmd_validate = lambda args: (warnings.warn('library noise', UserWarning), 0)[1]; "
-        "sys.exit(cli.main(sys.argv[1:]))"
+        "import sys, warnings; from resilient_tracking.cli import main, single_run; "
+        "single_run.cmd_validate = "
+        "lambda args: (warnings.warn('library noise', UserWarning), 0)[1]; "
+        "sys.exit(main(sys.argv[1:]))"
     )
     quiet = subprocess.run(
         [sys.executable, "-c", code, "validate", "x.yaml"], capture_output=True, text=True
@@ -114,11 +115,12 @@ def test_node_plan_budget_outside_its_range_is_an_error_naming_it(share, capsys)
 )
 def test_node_plan_budget_reaches_the_node_settings(given, expected):
     pytest.importorskip("cyclonedds")
-    from resilient_tracking.cli import _ros2_node_setup, build_parser
+    from resilient_tracking.cli.parser import build_parser
+    from resilient_tracking.cli.ros2_nodes import node_setup
     from resilient_tracking.ros2.topics import NodeSettings
 
     args = build_parser().parse_args(["node", str(SCENARIOS / "sensing-temp.yaml"), *given])
-    setup = _ros2_node_setup(args)
+    setup = node_setup(args)
     assert setup is not None
     settings = setup[2]
     assert isinstance(settings, NodeSettings) and settings.plan_budget == expected

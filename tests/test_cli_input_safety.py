@@ -14,7 +14,8 @@ import pytest
 import yaml
 
 from helpers import SCENARIOS
-from resilient_tracking.cli import _ShownFormatter, main, shown
+from resilient_tracking.cli import main
+from resilient_tracking.cli.common import ShownFormatter, shown
 
 #: What a terminal acts on instead of showing: a window title, a colour, a right-to-left override.
 HOSTILE = "evil\x1b]0;pwned\x07\x1b[31mRED\u202e"
@@ -38,7 +39,7 @@ def test_shown_escapes_what_a_terminal_would_act_on():
 
 def test_log_lines_are_escaped_like_printed_text():
     record = logging.LogRecord("x", logging.WARNING, "", 0, "zone %s", (HOSTILE,), None)
-    line = _ShownFormatter("%(levelname)s %(message)s").format(record)
+    line = ShownFormatter("%(levelname)s %(message)s").format(record)
     assert line == "WARNING zone evil\\x1b]0;pwned\\x07\\x1b[31mRED\\u202e"
 
 

@@ -233,7 +233,7 @@ def test_without_the_extra_the_verbs_say_how_to_install_it(monkeypatch, capsys) 
 def test_base_package_does_not_import_dds() -> None:
     code = (
         "import sys, resilient_tracking.cli, resilient_tracking.sim.episode;"
-        "from resilient_tracking.cli import build_parser; build_parser();"
+        "from resilient_tracking.cli.parser import build_parser; build_parser();"
         "assert 'cyclonedds' not in sys.modules and 'rosbags' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

@@ -197,6 +197,7 @@ def test_ctrl_c_after_the_command_finished_does_not_end_the_process_by_the_signa
 SWALLOWING_LIBRARY = """
 import os, signal, sys, time
 import resilient_tracking.cli as cli
+import resilient_tracking.cli.single_run as single_run
 import resilient_tracking.sim.episode as episode
 
 def swallowing(*args, **kwargs):
@@ -207,7 +208,7 @@ def swallowing(*args, **kwargs):
         raise ValueError("Invalid bounding box") from None
     return 0
 
-cli.cmd_validate = swallowing
+single_run.cmd_validate = swallowing
 episode.run_episode = swallowing
 sys.exit(cli.main())
 """

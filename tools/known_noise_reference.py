@@ -32,7 +32,7 @@ from joblib import Parallel, delayed
 
 from resilient_tracking import scenarios
 from resilient_tracking.belief.degradation_watch import DegradationWatch
-from resilient_tracking.cli import MAX_SEEDS
+from resilient_tracking.cli.common import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.experiments.generator import stored_beyond_suite
 from resilient_tracking.scenario import Scenario, load_scenario

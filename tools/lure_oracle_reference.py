@@ -28,7 +28,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from resilient_tracking import scenarios
-from resilient_tracking.cli import MAX_SEEDS
+from resilient_tracking.cli.common import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.policies.guards.lure import LureGuard
 from resilient_tracking.policies.guards.suspects import SuspectWatch

@@ -1,0 +1,107 @@
+"""What every ``rtrack`` command shares: option bounds, argument checks, safe printing."""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+
+from tqdm import tqdm
+
+from resilient_tracking import interrupts
+from resilient_tracking.scenario import Scenario, ScenarioError
+
+#: Bounds of the counting options: beyond them a typo would start hours of work or exhaust memory.
+MAX_SEEDS = 1000
+MAX_FRAMES = 2000
+MAX_FPS = 120
+
+
+def max_jobs() -> int:
+    """More worker processes than four per core only adds memory (about 200 MB each)."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def out_of_range(name: str, value: float | None, low: float, high: float) -> bool:
+    """Print an error and return True when ``value`` is given and not in ``[low, high]``
+    (NaN is in no range)."""
+    if value is None or low <= value <= high:
+        return False
+    print(f"error: {name}: must be between {low:g} and {high:g} (got {value})", file=sys.stderr)
+    return True
+
+
+def shown(text: object, lines: bool = False) -> str:
+    """``text`` safe to print to a terminal: every character a terminal would act on instead of
+    showing it (escape sequences, carriage returns, bells, Unicode format characters such as a
+    right-to-left override) is written as its escape (``\\x1b``, ``\\u202e``), and so are the
+    bytes of a file name that are not UTF-8 (``\\xff``); newlines too, unless ``lines``. Every
+    text that comes from the person's files or arguments goes through it before it is printed."""
+    text = str(text)
+    if text.isprintable():
+        return text
+    out = []
+    for char in text:
+        if char.isprintable() or char == "\t" or (lines and char == "\n"):
+            out.append(char)
+        elif "\udc80" <= char <= "\udcff":  # a byte that was not UTF-8 (os.fsdecode)
+            out.append(f"\\x{ord(char) - 0xDC00:02x}")
+        else:
+            out.append(char.encode("unicode_escape").decode("ascii"))
+    return "".join(out)
+
+
+def unusable_name(option: str, path: str | None) -> bool:
+    """Print an error and return True when ``path`` is given and empty (an unset shell variable,
+    say: it would mean the current folder), or holds bytes that are not UTF-8 (a file name in
+    another encoding: run tables, parquet, cannot be written or read under it). Checked before
+    any work."""
+    if path is None:
+        return False
+    if not path:
+        print(f"error: {option}: empty; give a name", file=sys.stderr)
+        return True
+    try:
+        path.encode("utf-8")
+    except UnicodeEncodeError:
+        print(
+            f"error: {option}: {shown(path)}: the name is not UTF-8 text, which run tables "
+            "and reports cannot hold; choose a UTF-8 name",
+            file=sys.stderr,
+        )
+        return True
+    return False
+
+
+class ShownFormatter(logging.Formatter):
+    """Log lines made safe for the terminal (:func:`shown`), as every other printed text."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        """The record's log line, escaped as :func:`shown` escapes a text of several lines."""
+        return shown(super().format(record), lines=True)
+
+
+def advance(bar: tqdm, n: int) -> None:
+    """Advance a progress bar, first stopping if Ctrl-C or SIGTERM came."""
+    interrupts.check()
+    bar.update(n)
+
+
+def load_or_report(path: str) -> Scenario | None:
+    """A scenario given by file path or shipped name, or None after printing why not."""
+    from resilient_tracking import scenarios
+
+    try:
+        return scenarios.load(path)
+    except ScenarioError as err:
+        print(f"error: {shown(err, lines=True)}", file=sys.stderr)
+        return None
+
+
+def policy_problem(name: str | None) -> str | None:
+    """Why ``--policy name`` cannot be used (``None``: it can, or no name was given)."""
+    if name is None:
+        return None
+    from resilient_tracking.policies import POLICIES
+
+    return POLICIES.problem(name)
