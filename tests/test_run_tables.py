@@ -1,5 +1,5 @@
-"""The run tables' declaration: recorded tables follow it, and the README and
-``docs/run-tables.md`` are generated from it and up to date."""
+"""The run tables' declaration: recorded tables follow it, and ``docs/run-tables.md`` is
+generated from it and up to date."""
 
 from __future__ import annotations
 
@@ -20,28 +20,20 @@ ROOT = Path(__file__).resolve().parents[1]
 STALE = f"is stale: run `{reference.COMMAND}` from the repository's root"
 
 
-def test_the_readme_run_folder_table_is_the_generated_one():
-    readme = (ROOT / "README.md").read_text()
-    assert readme.count(reference.BEGIN) == 1 and readme.count(reference.END) == 1
-    assert reference.with_readme_table(readme) == readme, f"README.md's run-folder table {STALE}"
-
-
 def test_the_run_tables_page_is_the_generated_one():
     page = (ROOT / "docs" / "run-tables.md").read_text()
     assert page == reference.reference(), f"docs/run-tables.md {STALE}"
 
 
-def test_the_generated_table_replaces_only_what_is_between_the_markers():
-    text = f"intro\n{reference.BEGIN}\nold table\n{reference.END}\noutro\n"
-    new = reference.with_readme_table(text)
-    assert new.startswith(f"intro\n{reference.BEGIN}\n") and new.endswith(
-        f"{reference.END}\noutro\n"
-    )
-    assert "old table" not in new
+def test_the_page_names_every_table_and_the_manifest():
+    page = reference.reference()
     for table in TABLES.values():
-        assert f"`{table.file}`" in new and ", ".join(table.names) in new
-    with pytest.raises(ValueError, match="markers"):
-        reference.with_readme_table("no markers here")
+        assert f"## `{table.file}`" in page
+    assert "## `manifest.json`" in page
+
+
+def test_the_readme_points_to_the_run_tables_page():
+    assert "docs/run-tables.md" in (ROOT / "README.md").read_text()
 
 
 def test_every_column_is_described_once():
