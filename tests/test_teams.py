@@ -80,3 +80,38 @@ def test_every_team_runs_every_shipped_scenario_file():
         data = _data(name)
         for team in TEAMS:
             Scenario.parse(data | {"team": team}, f"{name}.yaml [{team}]")
+
+
+def test_rtrack_teams_lists_every_team_with_what_it_fixes(capsys):
+    from resilient_tracking.cli import main
+
+    assert main(["teams"]) == 0
+    printed = capsys.readouterr().out
+    for team in TEAMS.values():
+        assert f"{team.name}: {team.summary}" in printed
+    assert "    planner.program: one_step" in printed
+    assert "    guards.lure.enabled: true" in printed
+
+
+def test_rtrack_run_takes_a_team_and_settings_by_path(tmp_path):
+    import json
+
+    from resilient_tracking.cli import main
+
+    out = tmp_path / "run"
+    args = ["run", "sensing-temp", "--steps", "3", "--no-figures", "-q", "--out", str(out)]
+    assert main([*args, "--team", "paper", "--set", "guards.lure.enabled=true"]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["scenario"]["team"] == "paper"
+    assert manifest["scenario"]["planner"]["program"] == "one_step"
+    assert manifest["scenario"]["guards"]["lure"] == {"enabled": True}
+
+
+def test_the_learning_environment_takes_a_team():
+    pytest.importorskip("gymnasium")
+    from resilient_tracking.env import TeamEnv
+
+    env = TeamEnv("sensing-temp", team="beyond", steps=5)
+    scenario = env.session.scenario
+    assert scenario.team == "beyond" and scenario.belief.zone_motion.enabled
+

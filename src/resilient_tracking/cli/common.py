@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import argparse
 import logging
 import os
 import sys
+from collections.abc import Sequence
 
 from tqdm import tqdm
 
@@ -87,15 +89,39 @@ def advance(bar: tqdm, n: int) -> None:
     bar.update(n)
 
 
-def load_or_report(path: str) -> Scenario | None:
-    """A scenario given by file path or shipped name, or None after printing why not."""
+def load_or_report(
+    path: str, team: str | None = None, overrides: Sequence[str] = ()
+) -> Scenario | None:
+    """A scenario given by file path or shipped name, run by ``team`` when given and changed
+    by ``--set`` ``overrides`` (``dotted.path=value``), or None after printing why not."""
     from resilient_tracking import scenarios
+    from resilient_tracking.experiments.comparison import parse_override
+    from resilient_tracking.scenario.overrides import overridden
 
     try:
-        return scenarios.load(path)
+        scenario = scenarios.load(path)
+        if team is not None:
+            scenario = scenario.with_team(team)
+        changes = dict(parse_override(text) for text in overrides)
+        return overridden(scenario, changes, f"{scenario.name} (with --set)")
     except ScenarioError as err:
         print(f"error: {shown(err, lines=True)}", file=sys.stderr)
-        return None
+    except ValueError as err:
+        print(f"error: {shown(err)}", file=sys.stderr)
+    return None
+
+
+def add_team_option(p: argparse.ArgumentParser, what: str = "the scenario") -> None:
+    """``--team NAME``: a named team runs ``what`` (``rtrack teams`` lists them)."""
+    from resilient_tracking.scenario.teams import TEAMS
+
+    p.add_argument(
+        "--team",
+        choices=list(TEAMS),
+        default=None,
+        help=f"a named team runs {what}; its settings fill in what the file leaves unsaid "
+        "(default: the file's team; rtrack teams lists them)",
+    )
 
 
 def policy_problem(name: str | None) -> str | None:

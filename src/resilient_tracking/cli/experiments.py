@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 def cmd_reproduce(args: argparse.Namespace) -> int:
     """``rtrack reproduce``: run the paper's experiments (docs/model.md §8) as a resumable sweep
     into ``--out`` and write ``report.md``, printing how many of the claims hold."""
-    from resilient_tracking.experiments.catalog import select, tasks
+    from resilient_tracking.experiments.catalog import select, tasks, with_team
     from resilient_tracking.experiments.report import files_of_report, write_report
 
     if out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
@@ -40,6 +40,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     try:
         experiments = select(args.names, quick=args.quick)
         plan = {e.name: tasks(e, args.seeds) for e in experiments}
+        if args.team is not None:
+            plan = {e.name: with_team(e, plan[e.name], args.team) for e in experiments}
     except KeyError as err:
         print(f"error: {shown(err.args[0])}", file=sys.stderr)
         return 1
@@ -136,6 +138,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     try:
         seeds = parse_seeds(args.seeds, MAX_SEEDS)
         overrides = [parse_override(text) for text in args.set]
+        if args.team is not None:  # the team first: the --set paths then override its settings
+            overrides.insert(0, ("team", args.team))
         policies = [p.strip() for p in args.policies.split(",") if p.strip()]
         study = make_study(
             args.scenario, policies, seeds, overrides, args.zone_free, args.by_zone_kind

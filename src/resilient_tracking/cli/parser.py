@@ -9,6 +9,7 @@ import resilient_tracking.cli.experiments as experiments
 import resilient_tracking.cli.ros2_nodes as ros2_nodes
 import resilient_tracking.cli.single_run as single_run
 from resilient_tracking import __version__
+from resilient_tracking.cli.common import add_team_option
 
 
 def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -45,6 +46,7 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
         p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
         p.set_defaults(func=func)
         if verb == "node":
+            add_team_option(p)
             p.add_argument("--out", default=None, help="run folder")
             p.add_argument("--policy", default=None, help="a policy name (default: the file's)")
             p.add_argument("--bag", default=None, metavar="FILE", help="also write a ROS 2 bag")
@@ -100,6 +102,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="failure_aware (the paper), vanilla, sog (Mayya et al. baseline, reconstructed), a "
         "name an installed package registers, or package.module:Class (default: the file's)",
     )
+    add_team_option(p)
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="PATH=VALUE",
+        help="override a scenario field by dotted path, e.g. guards.lure.enabled=true "
+        "(repeatable; applied after --team)",
+    )
     p.add_argument("--steps", type=int, default=None, help="override the number of steps")
     p.add_argument("--no-figures", action="store_true")
     p.add_argument(
@@ -121,6 +132,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--seeds", type=int, default=None, help="seeds per cell (default: per experiment)"
     )
     p.add_argument("--quick", action="store_true", help="CI size: fewer seeds and cells")
+    add_team_option(p, "the failure-aware arms that run the default team")
     _add_sweep_options(p)
     p.set_defaults(func=experiments.cmd_reproduce, argv=[])
 
@@ -167,9 +179,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="report the first policy's win rates against each other one over the scenarios, "
         "split by whether a scenario has a comm zone, with Wilson 95%% intervals",
     )
+    add_team_option(p, "every scenario")
     p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
     _add_sweep_options(p)
     p.set_defaults(func=experiments.cmd_compare, argv=None)
+
+    p = sub.add_parser(
+        "teams", help="list the named teams: name, one line, the settings each fixes"
+    )
+    p.set_defaults(func=single_run.cmd_teams)
 
     p = sub.add_parser(
         "generate",

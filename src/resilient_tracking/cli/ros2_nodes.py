@@ -31,7 +31,7 @@ def node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] | None:
         return None
     from resilient_tracking.ros2.topics import NodeSettings
 
-    scenario = load_or_report(args.scenario)
+    scenario = load_or_report(args.scenario, getattr(args, "team", None))
     if scenario is None:
         return None
     if args.seed is not None and args.seed < 0:

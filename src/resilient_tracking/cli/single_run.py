@@ -47,7 +47,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     """``rtrack run``: run one episode and write its run folder (tables, manifest and, unless
     ``--no-figures``, figures); exit status 0 when written, 1 for bad input or a refused ``--out``,
     2 when the run failed (nothing is written)."""
-    scenario = load_or_report(args.scenario)
+    scenario = load_or_report(args.scenario, args.team, args.set)
     if scenario is None:
         return 1
     why = policy_problem(args.policy)
@@ -177,4 +177,12 @@ def cmd_animate(args: argparse.Namespace) -> int:
     print("wrote " + ", ".join(shown(p) for p in written))
     if len(written) == 1:
         print("no MP4: no ffmpeg found; pip install 'resilient-tracking[video]' for one")
+    return 0
+
+
+def cmd_teams(args: argparse.Namespace) -> int:
+    """``rtrack teams``: every named team, its summary and the settings it fixes."""
+    from resilient_tracking.scenario.teams import team_listing
+
+    print(team_listing())
     return 0

@@ -12,10 +12,8 @@ runs in a few minutes, as CI does; the claims checked on them are the same.
 
 from __future__ import annotations
 
-import hashlib
-import json
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterable
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -23,13 +21,12 @@ from typing import Any
 import yaml
 
 from resilient_tracking import scenarios
+from resilient_tracking.experiments.arms import Experiment, Task, Variant, team_arm
 from resilient_tracking.experiments.generator import (
     stored_adversarial_suite,
     stored_beyond_suite,
     stored_suite,
 )
-from resilient_tracking.runs.folders import folder_name
-from resilient_tracking.runs.manifest import code_digest
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import apply_overrides
 from resilient_tracking.scenario.teams import get_team
@@ -46,95 +43,6 @@ RISK_LEVELS: dict[str, tuple[float, float]] = {
     "regular": (0.02, 0.3),
     "conservative": (0.01, 0.2),
 }
-
-
-@dataclass(frozen=True)
-class Variant:
-    """One arm of an experiment: a policy and how the scenario file is changed for it."""
-
-    label: str
-    policy: str
-    overrides: Mapping[str, Any] = field(default_factory=dict)
-    n_robots: int | None = None
-    n_targets: int | None = None
-    #: free-form attributes used to group runs in figures and claims (risk level, team size)
-    tags: Mapping[str, Any] = field(default_factory=dict)
-    #: at most this many of the experiment's seeds (its first ones) for this arm; None: all
-    max_seeds: int | None = None
-
-    def changes(self, data: Mapping[str, Any]) -> dict[str, Any]:
-        """Everything this arm changes in the scenario mapping ``data``, by dotted path: the
-        team and targets cut to size, the policy, then :attr:`overrides`."""
-        changes: dict[str, Any] = {}
-        if self.n_robots is not None:
-            changes["robots"] = data["robots"][: self.n_robots]
-        if self.n_targets is not None:
-            changes["targets"] = data["targets"][: self.n_targets]
-        changes["policy.name"] = self.policy
-        return {**changes, **self.overrides}
-
-
-@dataclass(frozen=True)
-class Experiment:
-    """One experiment of ``rtrack reproduce``: a scenario (or generated ones), its variants, how
-    many seeds, and which figures and claims its report section draws."""
-
-    name: str
-    scenario: str  # name of a shipped scenario (``resilient_tracking.scenarios``)
-    variants: tuple[Variant, ...]
-    seeds: int
-    description: str = ""
-    #: figures and claims to draw from it: "pair", "risk", "scale", "complex" or
-    #: "generalization"
-    kind: str = "pair"
-    #: generated scenarios instead of a file: returns (scenario, its variants) pairs, and
-    #: ``scenario`` and ``variants`` above are unused
-    generated: Callable[[], list[tuple[Scenario, tuple[Variant, ...]]]] | None = None
-    #: the planner program its runs use ("one_step": the paper's; "route": the default;
-    #: "": the scenarios' own setting)
-    program: str = ""
-    #: whether the paper's narrative of it has a robot sensing to the end (the combined
-    #: scenarios: "R1 avoids entering the danger zones and continues to support the team's
-    #: tracking efforts"), checked as a claim
-    keeps_sensing: bool = False
-
-    def seed_list(self, n: int | None = None) -> list[int]:
-        """The seeds ``1..n`` (default ``n``: the experiment's own number of seeds)."""
-        return list(range(1, (n or self.seeds) + 1))
-
-
-@dataclass(frozen=True)
-class Task:
-    """One run of a sweep: a fully validated scenario, a policy and a seed."""
-
-    experiment: str
-    variant: Variant
-    seed: int
-    scenario: Scenario
-
-    @property
-    def run_id(self) -> str:
-        """The run's path under ``OUT/runs``: ``experiment/variant/seed-NNN``."""
-        return (
-            f"{folder_name(self.experiment)}/{folder_name(self.variant.label)}/seed-{self.seed:03d}"
-        )
-
-    @property
-    def fingerprint(self) -> str:
-        """Hash of everything that determines the run's tables: the scenario, the policy, the
-        seed and the package's code (:func:`~resilient_tracking.runs.manifest.code_digest`); a
-        stored run with another fingerprint is stale and is run again. The free-text
-        ``description`` is left out: rewording it changes no result."""
-        text = json.dumps(
-            [
-                self.scenario.model_dump(mode="json", exclude={"description"}),
-                self.variant.policy,
-                self.seed,
-                code_digest(),
-            ],
-            sort_keys=True,
-        )
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def scenario_for(
@@ -301,14 +209,6 @@ def _three_teams(
     """The teams ``vanilla``, ``default`` and ``extended`` on scenario ``name``, labelled
     ``<name>-<team>`` and tagged with the scenario, the team and ``part``."""
     return tuple(_arm(name, team, part, max_seeds) for team in ("vanilla", "default", extended))
-
-
-def team_arm(team: str, label: str | None = None, **tags: Any) -> Variant:
-    """The arm of the named team ``team``: its policy and its settings (which override the
-    scenario's, as the catalogue's arms always do), labelled ``label`` (default: the team)."""
-    settings = dict(get_team(team).settings)
-    policy = settings.pop("policy.name", "failure_aware")
-    return Variant(label or team, policy, settings, tags={"team": team, **tags})
 
 
 def _arm(name: str, team: str, part: str, max_seeds: int | None = None) -> Variant:
@@ -523,4 +423,19 @@ def tasks(
         Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
         for variant, scenario in arms
         for seed in experiment.seed_list(seeds)[: variant.max_seeds]
+    ]
+
+
+def with_team(experiment: Experiment, runs: list[Task], team: str) -> list[Task]:
+    """``runs`` of ``experiment`` with the failure-aware arms that run the default team run by
+    ``team`` instead (``rtrack reproduce --team``); the paper's one-step experiments, whose
+    arms are the ``paper`` team's, and the arms of other teams are kept."""
+    if experiment.program == "one_step":
+        return runs
+    return [
+        replace(t, scenario=t.scenario.with_team(team))
+        if t.variant.policy == "failure_aware"
+        and t.variant.tags.get("team", "default") == "default"
+        else t
+        for t in runs
     ]

@@ -1,0 +1,112 @@
+"""The shapes of ``rtrack reproduce``'s work: an experiment, its arms (variants) and the runs
+(tasks) they make, and the arm of a named team."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from resilient_tracking.runs.folders import folder_name
+from resilient_tracking.runs.manifest import code_digest
+from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario.teams import get_team
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One arm of an experiment: a policy and how the scenario file is changed for it."""
+
+    label: str
+    policy: str
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    n_robots: int | None = None
+    n_targets: int | None = None
+    #: free-form attributes used to group runs in figures and claims (risk level, team size)
+    tags: Mapping[str, Any] = field(default_factory=dict)
+    #: at most this many of the experiment's seeds (its first ones) for this arm; None: all
+    max_seeds: int | None = None
+
+    def changes(self, data: Mapping[str, Any]) -> dict[str, Any]:
+        """Everything this arm changes in the scenario mapping ``data``, by dotted path: the
+        team and targets cut to size, the policy, then :attr:`overrides`."""
+        changes: dict[str, Any] = {}
+        if self.n_robots is not None:
+            changes["robots"] = data["robots"][: self.n_robots]
+        if self.n_targets is not None:
+            changes["targets"] = data["targets"][: self.n_targets]
+        changes["policy.name"] = self.policy
+        return {**changes, **self.overrides}
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One experiment of ``rtrack reproduce``: a scenario (or generated ones), its variants, how
+    many seeds, and which figures and claims its report section draws."""
+
+    name: str
+    scenario: str  # name of a shipped scenario (``resilient_tracking.scenarios``)
+    variants: tuple[Variant, ...]
+    seeds: int
+    description: str = ""
+    #: figures and claims to draw from it: "pair", "risk", "scale", "complex" or
+    #: "generalization"
+    kind: str = "pair"
+    #: generated scenarios instead of a file: returns (scenario, its variants) pairs, and
+    #: ``scenario`` and ``variants`` above are unused
+    generated: Callable[[], list[tuple[Scenario, tuple[Variant, ...]]]] | None = None
+    #: the planner program its runs use ("one_step": the paper's; "route": the default;
+    #: "": the scenarios' own setting)
+    program: str = ""
+    #: whether the paper's narrative of it has a robot sensing to the end (the combined
+    #: scenarios: "R1 avoids entering the danger zones and continues to support the team's
+    #: tracking efforts"), checked as a claim
+    keeps_sensing: bool = False
+
+    def seed_list(self, n: int | None = None) -> list[int]:
+        """The seeds ``1..n`` (default ``n``: the experiment's own number of seeds)."""
+        return list(range(1, (n or self.seeds) + 1))
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run of a sweep: a fully validated scenario, a policy and a seed."""
+
+    experiment: str
+    variant: Variant
+    seed: int
+    scenario: Scenario
+
+    @property
+    def run_id(self) -> str:
+        """The run's path under ``OUT/runs``: ``experiment/variant/seed-NNN``."""
+        return (
+            f"{folder_name(self.experiment)}/{folder_name(self.variant.label)}/seed-{self.seed:03d}"
+        )
+
+    @property
+    def fingerprint(self) -> str:
+        """Hash of everything that determines the run's tables: the scenario, the policy, the
+        seed and the package's code (:func:`~resilient_tracking.runs.manifest.code_digest`); a
+        stored run with another fingerprint is stale and is run again. The free-text
+        ``description`` is left out: rewording it changes no result."""
+        text = json.dumps(
+            [
+                self.scenario.model_dump(mode="json", exclude={"description"}),
+                self.variant.policy,
+                self.seed,
+                code_digest(),
+            ],
+            sort_keys=True,
+        )
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def team_arm(team: str, label: str | None = None, **tags: Any) -> Variant:
+    """The arm of the named team ``team``: its policy and its settings (which override the
+    scenario's, as the catalogue's arms always do), labelled ``label`` (default: the team)."""
+    settings = dict(get_team(team).settings)
+    policy = settings.pop("policy.name", "failure_aware")
+    return Variant(label or team, policy, settings, tags={"team": team, **tags})
