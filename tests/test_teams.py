@@ -114,4 +114,3 @@ def test_the_learning_environment_takes_a_team():
     env = TeamEnv("sensing-temp", team="beyond", steps=5)
     scenario = env.session.scenario
     assert scenario.team == "beyond" and scenario.belief.zone_motion.enabled
-

@@ -134,7 +134,8 @@ def team_listing() -> str:
         lines = [f"{team.name}: {team.summary}"]
         fixed = team.settings or {"": "nothing: the defaults"}
         lines += [
-            f"    {path}: {_shown(value)}" if path else f"    {value}" for path, value in fixed.items()
+            f"    {path}: {_shown(value)}" if path else f"    {value}"
+            for path, value in fixed.items()
         ]
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
