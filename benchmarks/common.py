@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from resilient_tracking import scenarios
 from resilient_tracking.experiments.catalog import SIX
-from resilient_tracking.sim.kernels import numeric_kernels
+from resilient_tracking.kernels import numeric_kernels
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from resilient_tracking.kernels import PINNED_ENV
 from resilient_tracking.runs import fingerprints
-from resilient_tracking.sim.kernels import PINNED_ENV
 
 pytestmark = pytest.mark.slow
 

@@ -9,7 +9,7 @@ the same way. Every run uses the paper's one-step planner program.
 
 Bit for bit holds on one kind of CPU: OpenBLAS picks its kernels by CPU (and NumPy its SIMD
 loops), and an AVX-512 kernel rounds differently from an AVX2 one. So the fingerprints are
-taken with both pinned (:data:`~resilient_tracking.sim.kernels.PINNED_ENV`, set before NumPy
+taken with both pinned (:data:`~resilient_tracking.kernels.PINNED_ENV`, set before NumPy
 loads: the command re-runs itself with it), which any x86-64 CPU with AVX2 and FMA runs alike.
 """
 
@@ -26,11 +26,11 @@ from pathlib import Path
 import pandas as pd
 
 from resilient_tracking import scenarios
+from resilient_tracking.kernels import PINNED_ENV, pinned
 from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.scenario.overrides import PAPER_METHOD, overridden
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.kernels import PINNED_ENV, pinned
 
 MODULE = "resilient_tracking.runs.fingerprints"
 

@@ -11,8 +11,8 @@ from typing import Any
 import casadi
 import numpy as np
 
+from resilient_tracking.kernels import numeric_kernels
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.sim.kernels import numeric_kernels
 from resilient_tracking.version import __version__
 
 
