@@ -1,1 +1,1 @@
-"""Simulation: the episode loop joining world and team, metrics, and the run files it writes."""
+"""Simulation: the episode loop joining world and team, recording its run tables, and soak runs."""
