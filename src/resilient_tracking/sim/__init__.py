@@ -1,1 +1,2 @@
-"""Simulation: the episode loop joining world and team, recording its run tables, and soak runs."""
+"""Simulation: the episode loop joining world and team and recording its run tables, soak runs,
+and the fingerprints that prove results unchanged (:mod:`.fingerprints`)."""

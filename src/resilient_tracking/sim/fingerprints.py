@@ -1,6 +1,6 @@
 """Fingerprints of the reproducible run tables, to prove a refactor changed no result.
 
-``python -m resilient_tracking.runs.fingerprints --write`` records the SHA-256 of every
+``python -m resilient_tracking.sim.fingerprints --write`` records the SHA-256 of every
 bit-for-bit table (:data:`~resilient_tracking.runs.schema.REPRODUCIBLE`) of a fixed set of runs
 (every shipped paper and benchmark scenario with every policy) into the golden file
 (``tests/data/golden_tables.json`` of the repository); without ``--write`` it re-runs them and
@@ -32,7 +32,7 @@ from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.scenario.overrides import PAPER_METHOD, overridden
 from resilient_tracking.sim.episode import run_episode
 
-MODULE = "resilient_tracking.runs.fingerprints"
+MODULE = "resilient_tracking.sim.fingerprints"
 
 #: The golden file, relative to the repository's root.
 GOLDEN = Path("tests") / "data" / "golden_tables.json"
