@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from joblib import Parallel, delayed
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.cli import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.policies.suspects import SuspectWatch
@@ -81,7 +81,7 @@ def run(
     settings: dict[str, Any] = dict(ADVERSARIAL_TEAM)
     if standoff is not None:
         settings |= {GUARD: True, STANDOFF: standoff}
-    scenario = overridden(load_scenario(scenarios.resolve(name)), settings)
+    scenario = overridden(load_scenario(builtin_scenarios.resolve(name)), settings)
     stepper = EpisodeStepper(scenario, "failure_aware", seed)
     watch = getattr(stepper.team.policy, "suspects", None)
     if watch is not None:

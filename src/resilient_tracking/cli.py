@@ -101,7 +101,7 @@ def _step(bar: tqdm, n: int) -> None:
 
 def _load(path: str) -> Scenario | None:
     """A scenario given by file path or shipped name, or None after printing why not."""
-    from resilient_tracking import scenarios
+    from resilient_tracking import builtin_scenarios as scenarios
 
     try:
         return scenarios.load(path)

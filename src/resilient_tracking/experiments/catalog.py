@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios as scenarios
 from resilient_tracking.experiments.generator import (
     stored_adversarial_suite,
     stored_beyond_suite,

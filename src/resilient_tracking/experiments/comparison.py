@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments import report_files
 from resilient_tracking.experiments.catalog import Task, Variant
 from resilient_tracking.experiments.generalization import (
@@ -192,7 +192,7 @@ def make_study(
         label = Path(arg).stem if Path(arg).suffix in (".yaml", ".yml") else str(arg)
         if label in loaded:
             label = f"{label}-{len(loaded) + 1}"
-        scenario = scenarios.load(arg)
+        scenario = builtin_scenarios.load(arg)
         loaded[label] = overridden(scenario, dict(overrides), f"{scenario.name} (with --set)")
     return Study(
         loaded,

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.kernels import PINNED_ENV, pinned
 from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import Scenario, load_scenario
@@ -65,7 +65,7 @@ def table_hash(df: pd.DataFrame) -> str:
 def fingerprinted_scenario(name: str) -> Scenario:
     """Shipped scenario ``name`` with the paper's method as written (its one-step program and
     constraint set, :data:`~resilient_tracking.scenario.overrides.PAPER_METHOD`)."""
-    return overridden(load_scenario(scenarios.path(name)), PAPER_METHOD)
+    return overridden(load_scenario(builtin_scenarios.path(name)), PAPER_METHOD)
 
 
 def fingerprints(runs: Sequence[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:
