@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from resilient_tracking import builtin_scenarios
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import (

@@ -15,7 +15,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.imm import InteractingMultipleModel
 from resilient_tracking.build import make_estimator
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.scenario import AdaptiveEstimatorSpec, ScenarioError, load_scenario
 from resilient_tracking.sim.episode import run_episode
 

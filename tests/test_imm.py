@@ -21,7 +21,7 @@ from resilient_tracking.belief.modes import ModeStates, transport_map
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.build import make_estimator
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.scenario import (
     EstimatorSpec,
     ImmEstimatorSpec,

@@ -447,7 +447,7 @@ def test_observe_asks_a_sensors_own_in_range(max_range: float | None) -> None:
     whose ``in_range`` is its own (here: blind within 1.5 m) is asked, limit or not."""
     from dataclasses import dataclass
 
-    from resilient_tracking.models.sensor import RangeBearingSensor
+    from resilient_tracking.models.range_bearing import RangeBearingSensor
 
     @dataclass(frozen=True)
     class Blind(RangeBearingSensor):

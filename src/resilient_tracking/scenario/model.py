@@ -10,7 +10,8 @@ from pydantic import (
     ValidationError,
 )
 
-from resilient_tracking.models.sensor import SENSORS, RangeBearingSpec
+from resilient_tracking.models.range_bearing import RangeBearingSpec
+from resilient_tracking.models.sensor import SENSORS
 from resilient_tracking.planning.spec import PlannerSpec
 from resilient_tracking.scenario.adversarial import Lure
 from resilient_tracking.scenario.base import (
