@@ -14,14 +14,14 @@ import casadi
 import numpy as np
 import numpy.typing as npt
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments.catalog import SIX
-from resilient_tracking.sim.kernels import numeric_kernels
+from resilient_tracking.kernels import numeric_kernels
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 IMAGES = ROOT / "docs" / "images"
-SCENARIOS = scenarios.folder()
+SCENARIOS = builtin_scenarios.folder()
 SHIPPED = SIX  # the paper's six scenarios
 
 

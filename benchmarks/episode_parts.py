@@ -28,7 +28,7 @@ PARTS = ("observe", "belief", "policy", "planning", "world", "records")
 
 def measure(name: str, policy: str, seed: int) -> dict[str, float]:
     """One episode, timed part by part (ms per step); the loop of ``run_episode``."""
-    from resilient_tracking import scenarios
+    from resilient_tracking import builtin_scenarios
     from resilient_tracking.runs.records import join_tables
     from resilient_tracking.runs.team_recorder import TeamRecorder
     from resilient_tracking.runs.truth_recorder import TruthRecorder
@@ -36,7 +36,7 @@ def measure(name: str, policy: str, seed: int) -> dict[str, float]:
     from resilient_tracking.team import TeamStep, build_team
     from resilient_tracking.world import World
 
-    scenario = load_scenario(scenarios.folder() / f"{name}.yaml")
+    scenario = load_scenario(builtin_scenarios.folder() / f"{name}.yaml")
     data = scenario.model_dump(mode="python")
     if "program" in data.get("planner", {}):
         data["planner"]["program"] = "one_step"

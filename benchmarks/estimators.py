@@ -32,12 +32,12 @@ ESTIMATORS: dict[str, dict[str, Any]] = {
 
 def belief_ms(name: str, estimator: dict[str, Any], steps: int) -> float:
     """Mean milliseconds per step of the belief update in one episode of ``name``."""
-    from resilient_tracking import scenarios
+    from resilient_tracking import builtin_scenarios
     from resilient_tracking.belief.team_belief import TeamBelief
     from resilient_tracking.scenario import load_scenario
     from resilient_tracking.sim.episode import EpisodeStepper
 
-    scenario = load_scenario(scenarios.path(name))
+    scenario = load_scenario(builtin_scenarios.path(name))
     section = {**scenario.estimator.model_dump(exclude={"type"}), **estimator}
     scenario = scenario.with_overrides(steps=steps, estimator=section)
     stepper = EpisodeStepper(scenario, "failure_aware", seed=1)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import (
     ProblemInputs,

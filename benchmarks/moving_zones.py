@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import machine, save, table
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.scenario.overrides import every_zone_known, overridden
 from resilient_tracking.sim.episode import run_episode
@@ -36,10 +36,12 @@ def cases(quick: bool) -> list[tuple[str, Scenario, Scenario]]:
     """(label, moving, static) pairs, the extended team with every zone known."""
     out = []
     for name in ("moving-sensing", "moving-comm-perm"):
-        moving = every_zone_known(load_scenario(scenarios.path(name)).with_team("beyond"))
+        moving = every_zone_known(load_scenario(builtin_scenarios.path(name)).with_team("beyond"))
         static = overridden(moving, {f"zones.{i}.motion": None for i in range(len(moving.zones))})
         out.append((f"3×3 {name}", moving, static))
-    soak = load_scenario(scenarios.path("soak-20x20")).with_overrides(steps=60 if quick else 300)
+    soak = load_scenario(builtin_scenarios.path("soak-20x20")).with_overrides(
+        steps=60 if quick else 300
+    )
     static = every_zone_known(soak.with_team("beyond"))
     circling = {
         f"zones.{i}.motion": {

@@ -60,7 +60,7 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (wheel,) = dist.glob("resilient_tracking-*.whl")
     with zipfile.ZipFile(wheel) as z:
         names = z.namelist()
-    assert "resilient_tracking/scenarios/sensing-temp.yaml" in names
+    assert "resilient_tracking/builtin_scenarios/sensing-temp.yaml" in names
     # compile jobs run this program by its file
     assert "resilient_tracking/planning/compile_supervisor.py" in names
     venv = base / "venv"

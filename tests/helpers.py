@@ -7,8 +7,8 @@ import copy
 import casadi as ca
 import numpy as np
 
-from resilient_tracking import scenarios
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking import builtin_scenarios
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import (
@@ -22,11 +22,11 @@ from resilient_tracking.planning.layout import (
 from resilient_tracking.planning.nlp import LeagueNLP
 from resilient_tracking.scenario import Scenario, load_scenario
 
-SCENARIOS = scenarios.folder()
+SCENARIOS = builtin_scenarios.folder()
 
 
 def shipped(name: str) -> Scenario:
-    return load_scenario(scenarios.path(name))
+    return load_scenario(builtin_scenarios.path(name))
 
 
 def inputs(n: int = 3, big_n: int = 3, seed: int = 0, sensing_zones: int = 1, comm_zones: int = 1):

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.imm import InteractingMultipleModel
 from resilient_tracking.build import make_estimator
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.scenario import AdaptiveEstimatorSpec, ScenarioError, load_scenario
 from resilient_tracking.sim.episode import run_episode
 
@@ -46,7 +46,7 @@ def test_the_levels_form_a_birth_death_chain_around_the_declared_noise() -> None
 
 
 def test_the_estimator_section_selects_the_adaptive_estimator() -> None:
-    scenario = load_scenario(scenarios.path("evasive-open")).with_overrides(
+    scenario = load_scenario(builtin_scenarios.path("evasive-open")).with_overrides(
         estimator={"type": "adaptive", "levels": 3, "spacing": 3.0}
     )
     assert isinstance(scenario.estimator, AdaptiveEstimatorSpec)
@@ -66,7 +66,7 @@ def test_the_estimator_section_selects_the_adaptive_estimator() -> None:
 )
 def test_a_bad_adaptive_section_names_its_field(section: dict[str, object], field: str) -> None:
     with pytest.raises(ScenarioError, match=field):
-        load_scenario(scenarios.path("evasive-open")).with_overrides(estimator=section)
+        load_scenario(builtin_scenarios.path("evasive-open")).with_overrides(estimator=section)
 
 
 def _nees_and_trace(
@@ -134,7 +134,7 @@ def test_the_adaptive_team_is_consistent_on_evasive_targets() -> None:
     """Position NEES of the team estimate on evasive-open, where robots sit next to cornered
     targets, averaged over its 3 targets, 200 steps and seeds 101-105: inside the 95 % band of
     the mean of 15 independent χ²(2) (conservative for a time average). Measured 1.7-1.9."""
-    scenario = load_scenario(scenarios.path("evasive-open")).with_overrides(
+    scenario = load_scenario(builtin_scenarios.path("evasive-open")).with_overrides(
         steps=200, estimator={"type": "adaptive"}
     )
     values = []

@@ -229,8 +229,8 @@ def test_beyond_figures_are_bands_and_snapshots_of_the_shipped_scenarios_only(tm
 
 
 def test_feature_counts_name_each_shipped_scenarios_feature():
+    from resilient_tracking.builtin_scenarios import load
     from resilient_tracking.experiments.beyond_features import feature_counts
-    from resilient_tracking.scenarios import load
 
     counts = feature_counts(load(name) for name in BEYOND)
     assert counts["scenarios"] == 6 and counts["zones"] == 6

@@ -12,12 +12,14 @@ from scipy import stats
 from helpers import shipped
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.comparison import (
-    confidence_interval,
     describe_seeds,
-    last_third_ratios,
     make_study,
     parse_override,
     parse_seeds,
+)
+from resilient_tracking.experiments.comparison_stats import (
+    confidence_interval,
+    last_third_ratios,
     summary_table,
     wins,
 )

@@ -22,7 +22,8 @@ from resilient_tracking.belief.settings import BeliefSettings
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import EVENT_NAMES, TRUTH_EVENTS
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor, wrap_angle
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import wrap_angle
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import overridden

@@ -12,7 +12,8 @@ from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.numpy_direct import solve as _solve
-from resilient_tracking.models.sensor import RangeBearingSensor, wrap_angle
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import wrap_angle
 
 # ---------------------------------------------------------------------------------------------
 # TargetEstimate

@@ -1,7 +1,7 @@
 """Refactors change no result: run tables equal, bit for bit, those recorded before them.
 
 The fingerprints in ``tests/data/golden_tables.json`` were written by
-``python -m resilient_tracking.runs.fingerprints --write`` (``tools/table_hashes.py --write``).
+``python -m resilient_tracking.sim.fingerprints --write`` (``tools/table_hashes.py --write``).
 A change that is meant to alter results must re-record them and say why in its commit.
 They are taken with OpenBLAS's kernels and NumPy's SIMD level pinned (``PINNED_ENV``), since
 those differ between CPUs and round differently.
@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 
-from resilient_tracking.runs import fingerprints
-from resilient_tracking.sim.kernels import PINNED_ENV
+from resilient_tracking.kernels import PINNED_ENV
+from resilient_tracking.sim import fingerprints
 
 pytestmark = pytest.mark.slow
 

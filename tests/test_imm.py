@@ -12,7 +12,7 @@ import pytest
 from scipy.stats import chi2, multivariate_normal
 
 from helpers import healthy_observation
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.fusion import fuse_estimates
@@ -21,7 +21,7 @@ from resilient_tracking.belief.modes import ModeStates, transport_map
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.build import make_estimator
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.scenario import (
     EstimatorSpec,
     ImmEstimatorSpec,
@@ -443,7 +443,7 @@ def test_a_repaired_target_restarts_its_modes_at_the_repair() -> None:
 
 
 def test_the_estimator_section_selects_the_filter() -> None:
-    base = load_scenario(scenarios.path("sensing-temp"))
+    base = load_scenario(builtin_scenarios.path("sensing-temp"))
     assert isinstance(base.estimator, EstimatorSpec)
     assert isinstance(make_estimator(base), ExtendedKalmanFilter)
     assert "type" not in base.model_dump()["estimator"]  # dumps as before the type existed
@@ -474,7 +474,7 @@ def test_the_estimator_section_selects_the_filter() -> None:
 
 
 def test_an_episode_runs_with_the_imm_and_its_team_keeps_modes() -> None:
-    scenario = load_scenario(scenarios.path("comm-temp")).with_overrides(
+    scenario = load_scenario(builtin_scenarios.path("comm-temp")).with_overrides(
         steps=25, estimator={"type": "imm"}
     )
     stepper = EpisodeStepper(scenario, "failure_aware", seed=3)
@@ -567,7 +567,7 @@ def test_imm_team_nees_is_consistent_on_manoeuvring_targets_where_the_ekf_is_not
 
 def _episode_nees(estimator: dict[str, object], seed: int) -> float:
     """Mean position NEES of the team estimate over 200 steps of evasive-open."""
-    scenario = load_scenario(scenarios.path("evasive-open")).with_overrides(
+    scenario = load_scenario(builtin_scenarios.path("evasive-open")).with_overrides(
         steps=200, estimator=estimator
     )
     t = run_episode(scenario, seed=seed).tables["targets"]

@@ -15,9 +15,9 @@ import pytest
 from helpers import SCENARIOS
 from resilient_tracking.cli import main
 from resilient_tracking.experiments import report
-from resilient_tracking.sim.kernels import PINNED_ENV, numeric_kernels, pinned, pinned_prefix
+from resilient_tracking.kernels import PINNED_ENV, numeric_kernels, pinned, pinned_prefix
 
-QUERY = "from resilient_tracking.sim.kernels import numeric_kernels as k; print(k()['blas_core'])"
+QUERY = "from resilient_tracking.kernels import numeric_kernels as k; print(k()['blas_core'])"
 
 
 def test_the_kernels_are_named():

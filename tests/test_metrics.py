@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.sim.metrics import mse
+from resilient_tracking.runs.metrics import mse
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 7, 8, 20])

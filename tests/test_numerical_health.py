@@ -18,7 +18,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.health import is_spd, repair_covariances
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.sim.episode import run_episode
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from helpers import with_policy_needs
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.build import team_config
 from resilient_tracking.policies import POLICIES, Decision, Policy
 from resilient_tracking.policy_check import PolicyCheckError, check_policy
@@ -14,7 +14,7 @@ from resilient_tracking.policy_check import PolicyCheckError, check_policy
 
 @pytest.fixture(scope="module")
 def scenario():
-    return scenarios.load("combined-temp")
+    return builtin_scenarios.load("combined-temp")
 
 
 @pytest.mark.parametrize("name", POLICIES.builtin_names())

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from resilient_tracking.models.sensor import RangeBearingSensor, wrap_angle
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import wrap_angle
 
 
 def _numerical_jacobian(sensor: RangeBearingSensor, robot, target, eps: float = 1e-6):

@@ -9,7 +9,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from helpers import automatic_derivatives, check_derivatives, inputs
-from resilient_tracking.models.sensor import PLAN_EPS, FloatArray, RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import PLAN_EPS, FloatArray
 from resilient_tracking.planning.league_problem import LeagueProblem
 from resilient_tracking.planning.nlp import LeagueNLP
 from resilient_tracking.planning.sog_problem import information_function

@@ -18,7 +18,8 @@ from resilient_tracking import SENSORS, MeasurementModel, SensorSpec, Team
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import PLAN_EPS, RangeBearingSensor, SensorChannel
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import PLAN_EPS, SensorChannel
 from resilient_tracking.scenario import ScenarioError, parse_scenario
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.world.world import World

@@ -17,7 +17,7 @@ from resilient_tracking.belief.knowledge import KnowledgeBase
 from resilient_tracking.build import make_policy, team_config
 from resilient_tracking.cli import main
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
 from resilient_tracking.planning.sog_nlp import SogNLP
 from resilient_tracking.planning.sog_problem import (

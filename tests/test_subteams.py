@@ -11,7 +11,7 @@ import pytest
 from pydantic import ValidationError
 
 from helpers import league_inputs
-from resilient_tracking.models.sensor import RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.planning.adaptation import chance_margin
 from resilient_tracking.planning.layout import (
     ProblemInputs,

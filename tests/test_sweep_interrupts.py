@@ -180,7 +180,7 @@ def test_ctrl_c_after_the_command_finished_does_not_end_the_process_by_the_signa
         "os.kill(os.getpid(), signal.SIGINT)\n"
         "sys.exit(code)\n"
     )
-    scenario = ROOT / "src" / "resilient_tracking" / "scenarios" / "sensing-temp.yaml"
+    scenario = ROOT / "src" / "resilient_tracking" / "builtin_scenarios" / "sensing-temp.yaml"
     proc = subprocess.run(
         [sys.executable, "-c", script, "validate", str(scenario)],
         cwd=tmp_path,
@@ -216,7 +216,7 @@ sys.exit(cli.main())
 
 @pytest.mark.parametrize("command", ["validate", "run"])
 def test_ctrl_c_turned_into_a_library_error_exits_130_without_a_traceback(tmp_path, command):
-    scenario = ROOT / "src" / "resilient_tracking" / "scenarios" / "sensing-temp.yaml"
+    scenario = ROOT / "src" / "resilient_tracking" / "builtin_scenarios" / "sensing-temp.yaml"
     argv = [command, str(scenario)] + (["--out", str(tmp_path / "run")] if command == "run" else [])
     proc = subprocess.run(
         [sys.executable, "-c", SWALLOWING_LIBRARY, *argv],

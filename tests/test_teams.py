@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios as scenarios
 from resilient_tracking.scenario import Scenario, ScenarioError, load_scenario
 from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.scenario.teams import DEFAULT_TEAM, TEAMS, get_team, with_team_settings

@@ -415,11 +415,11 @@ def test_the_worlds_observations_pass_the_checks_they_skip() -> None:
     must be what the checked constructor would make of it, attacks and recoveries included."""
     from dataclasses import fields
 
-    from resilient_tracking import scenarios
+    from resilient_tracking import builtin_scenarios
     from resilient_tracking.observation import TeamObservation
     from resilient_tracking.scenario import load_scenario
 
-    world = World(load_scenario(scenarios.folder() / "combined-temp.yaml"), 3)
+    world = World(load_scenario(builtin_scenarios.folder() / "combined-temp.yaml"), 3)
     seen = {"attacks": 0, "recoveries": 0}
     for step in range(200):
         obs = world.observe()
@@ -447,7 +447,7 @@ def test_observe_asks_a_sensors_own_in_range(max_range: float | None) -> None:
     whose ``in_range`` is its own (here: blind within 1.5 m) is asked, limit or not."""
     from dataclasses import dataclass
 
-    from resilient_tracking.models.sensor import RangeBearingSensor
+    from resilient_tracking.models.range_bearing import RangeBearingSensor
 
     @dataclass(frozen=True)
     class Blind(RangeBearingSensor):

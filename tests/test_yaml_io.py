@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.scenario import ScenarioError, load_scenario
 from resilient_tracking.yaml_io import (
     MAX_ALIAS_NODES,
@@ -17,7 +17,7 @@ from resilient_tracking.yaml_io import (
     parse_yaml,
 )
 
-SHIPPED = scenarios.path("sensing-temp").read_text()
+SHIPPED = builtin_scenarios.path("sensing-temp").read_text()
 
 
 def alias_bomb(levels: int = 9, width: int = 9) -> str:

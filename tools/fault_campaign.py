@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 from resilient_tracking.sim.records import EpisodeResult
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments.catalog import SIX
 from resilient_tracking.planning.faults import FAULT_KINDS, FaultInjector
 from resilient_tracking.scenario import load_scenario
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     failed = 0
     rows = []
     for name in args.scenarios:
-        scenario = load_scenario(scenarios.path(name)).with_overrides(steps=args.steps)
+        scenario = load_scenario(builtin_scenarios.path(name)).with_overrides(steps=args.steps)
         for policy in args.policies:
             for seed in args.seeds:
                 injector = FaultInjector(args.probability, seed=seed)

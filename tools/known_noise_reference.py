@@ -30,7 +30,7 @@ from typing import Any
 import pandas as pd
 from joblib import Parallel, delayed
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.belief.degradation_watch import DegradationWatch
 from resilient_tracking.cli.common import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
@@ -84,7 +84,7 @@ def _scenarios(args: argparse.Namespace) -> Iterator[Scenario]:
     if args.suite:
         yield from stored_beyond_suite()
     for name in args.scenarios:
-        yield load_scenario(scenarios.resolve(name))
+        yield load_scenario(builtin_scenarios.resolve(name))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 from joblib import Parallel, delayed
 
-from resilient_tracking import scenarios
 from resilient_tracking.cli.common import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.policies.guards.lure import LureGuard
@@ -83,7 +82,7 @@ def run(
     settings: dict[str, Any] = dict(get_team("adversarial").settings)
     if standoff is not None:
         settings |= {GUARD: True, STANDOFF: standoff}
-    scenario = overridden(load_scenario(scenarios.resolve(name)), settings)
+    scenario = overridden(load_scenario(builtin_scenarios.resolve(name)), settings)
     stepper = EpisodeStepper(scenario, "failure_aware", seed)
     lure = [g for g in getattr(stepper.team.policy, "guards", []) if isinstance(g, LureGuard)]
     if lure:

@@ -15,14 +15,14 @@ import argparse
 import logging
 import sys
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.scenario import ScenarioError, load_scenario
 from resilient_tracking.sim.soak import soak
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scenario", nargs="?", default=str(scenarios.path("soak-20x20")))
+    parser.add_argument("scenario", nargs="?", default=str(builtin_scenarios.path("soak-20x20")))
     parser.add_argument("--steps", type=int, default=None)
     parser.add_argument("--checkpoints", type=int, nargs="+", default=[500, 2000])
     parser.add_argument("--policy", default=None)

@@ -16,13 +16,9 @@ resilient_tracking`` stays light)::
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
-try:
-    __version__ = version("resilient-tracking")
-except PackageNotFoundError:  # running from a source tree without install
-    __version__ = "0.0.0"
+from resilient_tracking.version import __version__
 
 #: Public name → the module defining it.
 _PUBLIC = {

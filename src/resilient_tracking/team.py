@@ -5,7 +5,7 @@ measurements, failure flags, attack clues and link states — updates the team's
 the policy for velocity commands. The simulator drives this same object; a ROS 2 or
 Crazyflie node can wrap it the same way (``docs/team-api.md`` has a complete, tested example)::
 
-    team = Team.from_scenario(scenarios.load("mission.yaml"), initial_means)
+    team = Team.from_scenario(builtin_scenarios.load("mission.yaml"), initial_means)
     while running:
         step = team.step(TeamObservation(...))
         send(step.controls)          # (M, 2) velocities

@@ -94,7 +94,7 @@ def load_or_report(
 ) -> Scenario | None:
     """A scenario given by file path or shipped name, run by ``team`` when given and changed
     by ``--set`` ``overrides`` (``dotted.path=value``), or None after printing why not."""
-    from resilient_tracking import scenarios
+    from resilient_tracking import builtin_scenarios as scenarios
     from resilient_tracking.experiments.comparison import parse_override
     from resilient_tracking.scenario.overrides import overridden
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.belief.agent_view import MAX_ZONES
 from resilient_tracking.env.reward import StepOutcome
 from resilient_tracking.env.session import TrackingSession
@@ -29,7 +29,7 @@ def make_session(
     (its belief, and the expert's policy settings; ``rtrack teams`` lists them);
     ``record=False`` keeps no run tables (faster; the session then has no ``result`` and the
     environment does not render)."""
-    loaded = scenario if isinstance(scenario, Scenario) else scenarios.load(scenario)
+    loaded = scenario if isinstance(scenario, Scenario) else builtin_scenarios.load(scenario)
     if team is not None:
         loaded = loaded.with_team(team)
     if steps is not None:

@@ -47,7 +47,7 @@ class Experiment:
     many seeds, and which figures and claims its report section draws."""
 
     name: str
-    scenario: str  # name of a shipped scenario (``resilient_tracking.scenarios``)
+    scenario: str  # name of a shipped scenario (``resilient_tracking.builtin_scenarios``)
     variants: tuple[Variant, ...]
     seeds: int
     description: str = ""

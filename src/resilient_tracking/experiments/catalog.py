@@ -20,7 +20,7 @@ from typing import Any
 
 import yaml
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios as scenarios
 from resilient_tracking.experiments.arms import Experiment, Task, Variant, team_arm
 from resilient_tracking.experiments.generator import (
     stored_adversarial_suite,

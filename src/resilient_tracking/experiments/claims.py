@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from resilient_tracking.experiments.catalog import Experiment
-from resilient_tracking.experiments.comparison import confidence_interval
+from resilient_tracking.experiments.comparison_stats import confidence_interval
 from resilient_tracking.experiments.generalization import (
     Proportion,
     straggler_share,

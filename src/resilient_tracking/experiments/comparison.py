@@ -14,7 +14,8 @@ seed-NNN/``, resumable, a stale run is run again), then summarised in ``OUT/repo
 - with ``--by-zone-kind``, the first policy's win rates against each other one over the
   scenarios, split by whether a scenario has a comm zone, with Wilson intervals.
 
-Seeds are ``N`` (1..N), a range ``A-B`` or a list ``a,b,c``.
+Seeds are ``N`` (1..N), a range ``A-B`` or a list ``a,b,c``. The report's numbers come from
+:mod:`.comparison_stats`, its tables from :mod:`.comparison_tables`.
 """
 
 from __future__ import annotations
@@ -23,21 +24,29 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
-from scipy import stats
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments import report_files
 from resilient_tracking.experiments.catalog import Task, Variant
+from resilient_tracking.experiments.comparison_stats import (
+    RATIO_METRIC,
+    last_third_ratios,
+    summary_table,
+)
+from resilient_tracking.experiments.comparison_tables import (
+    summary_markdown,
+    wins_markdown,
+    zone_free_markdown,
+    zone_kinds_markdown,
+)
 from resilient_tracking.experiments.generalization import (
-    nozone_ratios,
     win_rates_by_kind,
     zone_free_rows,
     zone_kind,
 )
 from resilient_tracking.experiments.report_files import ReportFiles
-from resilient_tracking.experiments.summary import STRAGGLER_DISTANCE, summarise_run
+from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
 from resilient_tracking.runs.folders import write_text_atomic
 from resilient_tracking.runs.reading import RunData, load_run
@@ -51,20 +60,6 @@ from resilient_tracking.viz.sweeps import (
     plot_snapshots,
 )
 from resilient_tracking.yaml_io import YamlInputError, parse_yaml
-
-#: Metrics of the summary table: column of the per-run summary, label, whether lower is better.
-METRICS: tuple[tuple[str, str, bool], ...] = (
-    ("trace", "trace [m²]", True),
-    ("mse", "MSE [m²]", True),
-    ("effort", "effort [m/s]", True),
-    ("sensing_attacks", "sensing attacks", True),
-    ("comm_attacks", "comm attacks", True),
-    ("robots_attacked", "robots attacked", True),
-    ("survival_steps", "survival steps", False),
-)
-
-#: The metric of the zone-free comparison: last-third trace ÷ the zone-free reference's.
-RATIO_METRIC = ("last_third_ratio", "last third ÷ zone-free", True)
 
 #: Label suffix of the zone-free reference runs (``OUT/runs/<scenario>/<policy>-nozone/``).
 NOZONE = "-nozone"
@@ -192,7 +187,7 @@ def make_study(
         label = Path(arg).stem if Path(arg).suffix in (".yaml", ".yml") else str(arg)
         if label in loaded:
             label = f"{label}-{len(loaded) + 1}"
-        scenario = scenarios.load(arg)
+        scenario = builtin_scenarios.load(arg)
         loaded[label] = overridden(scenario, dict(overrides), f"{scenario.name} (with --set)")
     return Study(
         loaded,
@@ -204,156 +199,7 @@ def make_study(
     )
 
 
-# ---------------------------------------------------------------------------- summary
-
-
-def confidence_interval(values: np.ndarray, level: float = 0.95) -> tuple[float, float]:
-    """Student-t interval of the mean; NaN bounds with fewer than two values."""
-    values = np.asarray(values, dtype=float)
-    n = len(values)
-    mean = float(values.mean()) if n else float("nan")
-    if n < 2:
-        return float("nan"), float("nan")
-    half = float(stats.t.ppf(0.5 + level / 2, n - 1) * values.std(ddof=1) / np.sqrt(n))
-    return mean - half, mean + half
-
-
-def wins(runs: pd.DataFrame, metric: str, lower_is_better: bool = True) -> pd.DataFrame:
-    """Paired win counts of one metric: entry (a, b) is the number of seeds in which policy
-    ``a`` did strictly better than policy ``b`` (same scenario, same seed)."""
-    table = runs.pivot_table(index="seed", columns="policy", values=metric)
-    policies = list(table.columns)
-    out = pd.DataFrame(0, index=policies, columns=policies)
-    for a in policies:
-        for b in policies:
-            if a != b:
-                better = table[a] < table[b] if lower_is_better else table[a] > table[b]
-                out.loc[a, b] = int(better.sum())
-    return out
-
-
-def summary_table(
-    runs: pd.DataFrame, metrics: Sequence[tuple[str, str, bool]] = METRICS
-) -> pd.DataFrame:
-    """One row per (scenario, policy, metric): n, mean, std, 95 % CI, seeds where best."""
-    rows = []
-    for (scenario, policy), group in runs.groupby(["scenario", "policy"], sort=False):
-        same = runs[runs["scenario"] == scenario]
-        for metric, _, lower in metrics:
-            table = same.pivot_table(index="seed", columns="policy", values=metric)
-            others = table.drop(columns=policy)
-            if others.shape[1]:
-                best = others.min(axis=1) if lower else others.max(axis=1)
-                mine = table[policy]
-                best_in = int((mine < best).sum() if lower else (mine > best).sum())
-            else:
-                best_in = 0
-            values = group[metric].to_numpy(dtype=float)
-            low, high = confidence_interval(values)
-            rows.append(
-                {
-                    "scenario": scenario,
-                    "policy": policy,
-                    "metric": metric,
-                    "n": len(values),
-                    "mean": float(values.mean()),
-                    "std": float(values.std(ddof=1)) if len(values) > 1 else float("nan"),
-                    "ci95_low": low,
-                    "ci95_high": high,
-                    "best_in": best_in,
-                }
-            )
-    return pd.DataFrame(rows)
-
-
 # ---------------------------------------------------------------------------- report
-
-
-def _fmt(x: float) -> str:
-    return "–" if not np.isfinite(x) else f"{x:.4g}"
-
-
-def _markdown_summary(table: pd.DataFrame) -> str:
-    head = "| policy | runs | " + " | ".join(label for _, label, _ in METRICS) + " |"
-    lines = [head, "|" + "---|" * (len(METRICS) + 2)]
-    for policy, rows in table.groupby("policy", sort=False):
-        cells = []
-        for metric, _, _ in METRICS:
-            r = rows[rows["metric"] == metric].iloc[0]
-            ci = (
-                "" if not np.isfinite(r.ci95_low) else f" [{_fmt(r.ci95_low)}, {_fmt(r.ci95_high)}]"
-            )
-            cells.append(f"{_fmt(r['mean'])}{ci}; best in {r.best_in}")
-        lines.append(f"| {policy} | {int(rows['n'].iloc[0])} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-def _markdown_wins(runs: pd.DataFrame) -> str:
-    parts = []
-    for metric, label, lower in METRICS[:2]:
-        w = wins(runs, metric, lower)
-        lines = [
-            f"| {label}: row better than column, seeds | " + " | ".join(w.columns) + " |",
-            "|" + "---|" * (len(w.columns) + 1),
-        ]
-        for a in w.index:
-            lines.append(
-                f"| {a} | "
-                + " | ".join("–" if a == b else str(int(w.loc[a, b])) for b in w.columns)
-                + " |"
-            )
-        parts.append("\n".join(lines))
-    return "\n\n".join(parts)
-
-
-def last_third_ratios(runs: pd.DataFrame, reference: str) -> pd.DataFrame:
-    """One row per (scenario, policy, seed) with a zone-free run of ``reference`` at the same
-    seed: ``last_third_ratio``, the run's last-third trace ÷ the zone-free run's."""
-    free = zone_free_rows(runs)
-    frames = [
-        nozone_ratios(runs, policy, reference)
-        .rename(RATIO_METRIC[0])
-        .reset_index()
-        .assign(policy=policy)
-        for policy in runs.loc[~free, "policy"].unique()
-    ]
-    frames = [f for f in frames if len(f)]
-    if not frames:
-        return pd.DataFrame(columns=["scenario", "policy", "seed", RATIO_METRIC[0]])
-    ratios = pd.concat(frames, ignore_index=True).rename(columns={"tag_scenario": "scenario"})
-    order = {name: i for i, name in enumerate(dict.fromkeys(runs["scenario"]))}
-    ratios = ratios.iloc[np.argsort(ratios["scenario"].map(order).to_numpy(), kind="stable")]
-    return ratios[["scenario", "policy", "seed", RATIO_METRIC[0]]].reset_index(drop=True)
-
-
-def _markdown_zone_free(runs: pd.DataFrame, reference: str) -> str:
-    free = zone_free_rows(runs)
-    base, zoned = runs[free], runs[~free]
-    if base.empty:
-        return "**Zone-free reference**: no finished runs."
-    consistency = (base["targets"] * base["mse"] / base["trace"]).mean()
-    lines = [
-        f"**Zone-free reference** ({reference} with the zones removed, same seeds): trace "
-        f"{_fmt(base['trace'].mean())}, MSE {_fmt(base['mse'].mean())}, filter consistency "
-        f"N · MSE / trace {consistency:.2f} (1 when the filter's covariance matches its "
-        "errors). Per policy, the mean over seeds of the **last-third ratio** (mean trace over "
-        "the final third of the episode ÷ the reference's at the same seed; 1: at the end the "
-        "team tracks as well as without zones) with its 95 % confidence interval, and the "
-        f"stragglers (robots that can sense at the end but are more than "
-        f"{STRAGGLER_DISTANCE:g} m from every target) among the robots that can sense:",
-        "",
-        f"| policy | {RATIO_METRIC[1]} | stragglers |",
-        "|---|---|---|",
-    ]
-    ratios = last_third_ratios(runs, reference)
-    for policy, rows in zoned.groupby("policy", sort=False):
-        values = ratios.loc[ratios["policy"] == policy, RATIO_METRIC[0]].to_numpy(dtype=float)
-        low, high = confidence_interval(values)
-        ci = "" if not np.isfinite(low) else f" [{_fmt(low)}, {_fmt(high)}]"
-        mean = _fmt(float(values.mean())) if len(values) else "–"
-        far = f"{int(rows['stragglers'].sum())}/{int(rows['sensing_end'].sum())}"
-        lines.append(f"| {policy} | {mean}{ci} | {far} |")
-    return "\n".join(lines)
 
 
 def zone_kind_win_rates(runs: pd.DataFrame, study: Study) -> pd.DataFrame:
@@ -380,23 +226,6 @@ def zone_kind_win_rates(runs: pd.DataFrame, study: Study) -> pd.DataFrame:
                 for kind, p in rates.items()
             ]
     return pd.DataFrame(rows)
-
-
-def _markdown_zone_kinds(rates: pd.DataFrame) -> str:
-    lines = [
-        "## Win rates by zone kind",
-        "",
-        "Share of scenarios in which the first policy has the lower mean over seeds, with the "
-        "Wilson 95 % interval; a scenario has a comm zone or only sensing zones.",
-        "",
-        "| comparison | kind | scenarios | lower mean trace | lower mean MSE |",
-        "|---|---|---|---|---|",
-    ]
-    for (policy, against, kind), rows in rates.groupby(["policy", "against", "kind"], sort=False):
-        text = rows.set_index("metric")["text"]
-        n = int(rows["scenarios"].iloc[0])
-        lines.append(f"| {policy} vs {against} | {kind} | {n} | {text['trace']} | {text['mse']} |")
-    return "\n".join(lines) + "\n"
 
 
 def scenario_section(
@@ -446,12 +275,12 @@ def scenario_section(
         "Mean over seeds of each time-averaged metric, its 95 % confidence interval in brackets, "
         "and in how many seeds the policy did strictly better than every other one "
         "(lower is better, except survival steps).",
-        _markdown_summary(summary_table(zoned)),
+        summary_markdown(summary_table(zoned)),
         "**Paired wins** (same seed, so the same zone draws):",
-        _markdown_wins(zoned),
+        wins_markdown(zoned),
     ]
     if reference is not None:
-        parts.append(_markdown_zone_free(runs, reference))
+        parts.append(zone_free_markdown(runs, reference))
     parts += [f"![{caption}]({path.relative_to(out).as_posix()})" for caption, path in drawn]
     return "\n\n".join(parts) + "\n", runs
 
@@ -495,7 +324,7 @@ def write_compare_report(study: Study, tasks: list[Task], out: Path, command: st
         if study.by_zone_kind:
             rates = zone_kind_win_rates(runs, study)
             rates.drop(columns="text").to_csv(out / "win_rates.csv", index=False)
-            kinds = _markdown_zone_kinds(rates)
+            kinds = zone_kinds_markdown(rates)
     overrides = ", ".join(f"`{p}={v}`" for p, v in study.overrides) or "none"
     reference = (
         f"; zone-free reference runs of {study.zone_free}" if study.zone_free is not None else ""

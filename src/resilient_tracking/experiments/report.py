@@ -17,7 +17,6 @@ import casadi
 import numpy as np
 import pandas as pd
 
-from resilient_tracking import __version__
 from resilient_tracking.experiments import generalization, report_files
 from resilient_tracking.experiments.catalog import Experiment, Task, catalog
 from resilient_tracking.experiments.claims import Claim, check
@@ -33,9 +32,10 @@ from resilient_tracking.experiments.report_figures import (
 from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
+from resilient_tracking.kernels import numeric_kernels, pinned_prefix
 from resilient_tracking.runs.folders import write_text_atomic
 from resilient_tracking.runs.reading import RunData, load_run
-from resilient_tracking.sim.kernels import numeric_kernels, pinned_prefix
+from resilient_tracking.version import __version__
 
 log = logging.getLogger(__name__)
 

@@ -26,7 +26,7 @@ from typing import Any
 
 import pandas as pd
 
-from resilient_tracking import __version__, interrupts
+from resilient_tracking import interrupts
 from resilient_tracking.experiments.catalog import (
     ADVERSARIAL,
     BEYOND,
@@ -37,6 +37,7 @@ from resilient_tracking.experiments.catalog import (
 from resilient_tracking.experiments.sweep import run_dir
 from resilient_tracking.runs.folders import write_text_atomic
 from resilient_tracking.runs.reading import RunData
+from resilient_tracking.version import __version__
 from resilient_tracking.viz.sweeps import (
     BAND_METRICS,
     EFFORT_METRIC,

@@ -27,7 +27,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from resilient_tracking.models.sensor import PLAN_EPS, MeasurementModel, RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import PLAN_EPS, MeasurementModel
 
 # ---------------------------------------------------------------------------- named columns
 

@@ -12,7 +12,8 @@ from typing import Any
 
 import casadi as ca
 
-from resilient_tracking.models.sensor import PLAN_EPS, MeasurementModel, RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import PLAN_EPS, MeasurementModel
 from resilient_tracking.planning.layout import RouteRow
 from resilient_tracking.planning.margins import keep_out, pair_distance
 

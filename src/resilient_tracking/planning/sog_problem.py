@@ -34,7 +34,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from resilient_tracking.models.sensor import MeasurementModel, RangeBearingSensor
+from resilient_tracking.models.range_bearing import RangeBearingSensor
+from resilient_tracking.models.sensor import MeasurementModel
 from resilient_tracking.planning.compiled_problem import CompiledProblem
 from resilient_tracking.planning.planner import FaultHook, PlanResult, SolverLadder
 from resilient_tracking.planning.sog_nlp import (

@@ -11,9 +11,9 @@ from typing import Any
 import casadi
 import numpy as np
 
-from resilient_tracking import __version__
+from resilient_tracking.kernels import numeric_kernels
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.sim.kernels import numeric_kernels
+from resilient_tracking.version import __version__
 
 
 def episode_manifest(

@@ -14,9 +14,9 @@ import pandas as pd
 from resilient_tracking.belief.team_belief import TeamBelief
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.runs.metrics import effort
 from resilient_tracking.runs.records import ColumnTable
 from resilient_tracking.runs.schema import EVENTS, KNOWLEDGE, ROBOTS, TARGETS, TEAM, TIMING
-from resilient_tracking.sim.metrics import effort
 from resilient_tracking.team import TeamStep
 
 

@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking.events import Event
+from resilient_tracking.runs.metrics import mse
 from resilient_tracking.runs.records import ColumnTable
 from resilient_tracking.runs.schema import EVENTS, TARGETS, TEAM, ZONE_TRACKS, ZONES
-from resilient_tracking.sim.metrics import mse
 
 
 class ZoneSpecTruth(Protocol):

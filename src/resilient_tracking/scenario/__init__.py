@@ -18,7 +18,8 @@ The format is documented in ``docs/scenario-format.md``; everything is importabl
 
 from __future__ import annotations
 
-from resilient_tracking.models.sensor import RangeBearingSpec, SensorChannel, SensorSpec
+from resilient_tracking.models.range_bearing import RangeBearingSpec
+from resilient_tracking.models.sensor import SensorChannel, SensorSpec
 from resilient_tracking.planning.spec import (
     PlannerSpec,
     RouteSpec,

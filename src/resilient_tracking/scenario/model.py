@@ -16,7 +16,8 @@ from pydantic import (
 )
 
 from resilient_tracking.belief.settings import BeliefSettings
-from resilient_tracking.models.sensor import SENSORS, RangeBearingSpec
+from resilient_tracking.models.range_bearing import RangeBearingSpec
+from resilient_tracking.models.sensor import SENSORS
 from resilient_tracking.planning.spec import PlannerSpec
 from resilient_tracking.policies.guards.settings import GuardsSpec
 from resilient_tracking.scenario.adversarial import Lure

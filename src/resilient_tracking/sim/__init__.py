@@ -1,1 +1,2 @@
-"""Simulation: the episode loop joining world and team, metrics, and the run files it writes."""
+"""Simulation: the episode loop joining world and team and recording its run tables, soak runs,
+and the fingerprints that prove results unchanged (:mod:`.fingerprints`)."""

@@ -29,11 +29,11 @@ from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.manifest import episode_manifest
+from resilient_tracking.runs.metrics import mse
 from resilient_tracking.runs.records import EpisodeResult, join_tables
 from resilient_tracking.runs.team_recorder import TeamRecorder
 from resilient_tracking.runs.truth_recorder import TruthRecorder
 from resilient_tracking.scenario import Scenario
-from resilient_tracking.sim.metrics import mse
 from resilient_tracking.team import TeamStep, build_team
 from resilient_tracking.world import World
 from resilient_tracking.world.targets import TargetTruth

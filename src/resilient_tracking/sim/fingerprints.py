@@ -1,6 +1,6 @@
 """Fingerprints of the reproducible run tables, to prove a refactor changed no result.
 
-``python -m resilient_tracking.runs.fingerprints --write`` records the SHA-256 of every
+``python -m resilient_tracking.sim.fingerprints --write`` records the SHA-256 of every
 bit-for-bit table (:data:`~resilient_tracking.runs.schema.REPRODUCIBLE`) of a fixed set of runs
 (every shipped paper and benchmark scenario with every policy) into the golden file
 (``tests/data/golden_tables.json`` of the repository); without ``--write`` it re-runs them and
@@ -9,7 +9,7 @@ the same way. Every run uses the paper's one-step planner program.
 
 Bit for bit holds on one kind of CPU: OpenBLAS picks its kernels by CPU (and NumPy its SIMD
 loops), and an AVX-512 kernel rounds differently from an AVX2 one. So the fingerprints are
-taken with both pinned (:data:`~resilient_tracking.sim.kernels.PINNED_ENV`, set before NumPy
+taken with both pinned (:data:`~resilient_tracking.kernels.PINNED_ENV`, set before NumPy
 loads: the command re-runs itself with it), which any x86-64 CPU with AVX2 and FMA runs alike.
 """
 
@@ -25,13 +25,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from resilient_tracking import scenarios
+from resilient_tracking import builtin_scenarios
+from resilient_tracking.kernels import PINNED_ENV, pinned
 from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.sim.episode import run_episode
-from resilient_tracking.sim.kernels import PINNED_ENV, pinned
 
-MODULE = "resilient_tracking.runs.fingerprints"
+MODULE = "resilient_tracking.sim.fingerprints"
 
 #: The golden file, relative to the repository's root.
 GOLDEN = Path("tests") / "data" / "golden_tables.json"
@@ -64,7 +64,7 @@ def table_hash(df: pd.DataFrame) -> str:
 def fingerprinted_scenario(name: str) -> Scenario:
     """Shipped scenario ``name`` run by the ``paper`` team: the paper's method as written (its
     one-step program and constraint set)."""
-    return load_scenario(scenarios.path(name)).with_team("paper")
+    return load_scenario(builtin_scenarios.path(name)).with_team("paper")
 
 
 def fingerprints(runs: Sequence[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:

@@ -1,0 +1,110 @@
+"""The Markdown tables of ``rtrack compare``'s report: the summary per policy, the paired wins,
+the zone-free reference's last-third ratios and the win rates by zone kind, from the per-run
+rows or the tables of their numbers (:mod:`.comparison_stats`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from resilient_tracking.experiments.comparison_stats import (
+    METRICS,
+    RATIO_METRIC,
+    confidence_interval,
+    last_third_ratios,
+    wins,
+)
+from resilient_tracking.experiments.generalization import zone_free_rows
+from resilient_tracking.experiments.summary import STRAGGLER_DISTANCE
+
+
+def _fmt(x: float) -> str:
+    return "–" if not np.isfinite(x) else f"{x:.4g}"
+
+
+def summary_markdown(table: pd.DataFrame) -> str:
+    """One row per policy of a scenario's :func:`~.comparison_stats.summary_table`: each
+    metric's mean, its 95 % interval and in how many seeds the policy was best."""
+    head = "| policy | runs | " + " | ".join(label for _, label, _ in METRICS) + " |"
+    lines = [head, "|" + "---|" * (len(METRICS) + 2)]
+    for policy, rows in table.groupby("policy", sort=False):
+        cells = []
+        for metric, _, _ in METRICS:
+            r = rows[rows["metric"] == metric].iloc[0]
+            ci = (
+                "" if not np.isfinite(r.ci95_low) else f" [{_fmt(r.ci95_low)}, {_fmt(r.ci95_high)}]"
+            )
+            cells.append(f"{_fmt(r['mean'])}{ci}; best in {r.best_in}")
+        lines.append(f"| {policy} | {int(rows['n'].iloc[0])} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def wins_markdown(runs: pd.DataFrame) -> str:
+    """The paired win counts of trace and MSE (:func:`~.comparison_stats.wins`) of a scenario's
+    runs, one table per metric."""
+    parts = []
+    for metric, label, lower in METRICS[:2]:
+        w = wins(runs, metric, lower)
+        lines = [
+            f"| {label}: row better than column, seeds | " + " | ".join(w.columns) + " |",
+            "|" + "---|" * (len(w.columns) + 1),
+        ]
+        for a in w.index:
+            lines.append(
+                f"| {a} | "
+                + " | ".join("–" if a == b else str(int(w.loc[a, b])) for b in w.columns)
+                + " |"
+            )
+        parts.append("\n".join(lines))
+    return "\n\n".join(parts)
+
+
+def zone_free_markdown(runs: pd.DataFrame, reference: str) -> str:
+    """The zone-free reference runs of policy ``reference`` among a scenario's runs, and each
+    policy's last-third ratio to them with its 95 % interval and its stragglers."""
+    free = zone_free_rows(runs)
+    base, zoned = runs[free], runs[~free]
+    if base.empty:
+        return "**Zone-free reference**: no finished runs."
+    consistency = (base["targets"] * base["mse"] / base["trace"]).mean()
+    lines = [
+        f"**Zone-free reference** ({reference} with the zones removed, same seeds): trace "
+        f"{_fmt(base['trace'].mean())}, MSE {_fmt(base['mse'].mean())}, filter consistency "
+        f"N · MSE / trace {consistency:.2f} (1 when the filter's covariance matches its "
+        "errors). Per policy, the mean over seeds of the **last-third ratio** (mean trace over "
+        "the final third of the episode ÷ the reference's at the same seed; 1: at the end the "
+        "team tracks as well as without zones) with its 95 % confidence interval, and the "
+        f"stragglers (robots that can sense at the end but are more than "
+        f"{STRAGGLER_DISTANCE:g} m from every target) among the robots that can sense:",
+        "",
+        f"| policy | {RATIO_METRIC[1]} | stragglers |",
+        "|---|---|---|",
+    ]
+    ratios = last_third_ratios(runs, reference)
+    for policy, rows in zoned.groupby("policy", sort=False):
+        values = ratios.loc[ratios["policy"] == policy, RATIO_METRIC[0]].to_numpy(dtype=float)
+        low, high = confidence_interval(values)
+        ci = "" if not np.isfinite(low) else f" [{_fmt(low)}, {_fmt(high)}]"
+        mean = _fmt(float(values.mean())) if len(values) else "–"
+        far = f"{int(rows['stragglers'].sum())}/{int(rows['sensing_end'].sum())}"
+        lines.append(f"| {policy} | {mean}{ci} | {far} |")
+    return "\n".join(lines)
+
+
+def zone_kinds_markdown(rates: pd.DataFrame) -> str:
+    """The section of the win rates by zone kind, from their table (one row per comparison,
+    kind and metric, with the rate as ``text``)."""
+    lines = [
+        "## Win rates by zone kind",
+        "",
+        "Share of scenarios in which the first policy has the lower mean over seeds, with the "
+        "Wilson 95 % interval; a scenario has a comm zone or only sensing zones.",
+        "",
+        "| comparison | kind | scenarios | lower mean trace | lower mean MSE |",
+        "|---|---|---|---|---|",
+    ]
+    for (policy, against, kind), rows in rates.groupby(["policy", "against", "kind"], sort=False):
+        text = rows.set_index("metric")["text"]
+        n = int(rows["scenarios"].iloc[0])
+        lines.append(f"| {policy} vs {against} | {kind} | {n} | {text['trace']} | {text['mse']} |")
+    return "\n".join(lines) + "\n"
