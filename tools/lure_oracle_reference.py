@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from joblib import Parallel, delayed
 
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.cli.common import MAX_SEEDS
 from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.policies.guards.lure import LureGuard
