@@ -38,10 +38,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.models.finite import all_finite, sum_is_finite
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.numpy_direct import einsum as _einsum
 from resilient_tracking.models.numpy_direct import solve as _solve
+from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.models.sensor import MeasurementModel, wrap_angle_in_place
 
 FloatArray = NDArray[np.float64]
@@ -208,8 +208,8 @@ class ExtendedKalmanFilter:
             hp = hess @ cov[None, :, None, :2, :2]
             var = var + 0.5 * np.einsum("kncab,kncba->knc", hp, hp)
 
-        # every robot measured every target (a finite sum has finite terms): nothing to mask
-        measured_all = sum_is_finite(z)
+        # every robot measured every target: nothing to mask
+        measured_all = all_finite(z)
         valid = _all_true(k, n) if measured_all else np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
         if at is not None:  # iterated EKF: z − h(p_i) − H_i (p̂ − p_i)

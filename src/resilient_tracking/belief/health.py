@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from resilient_tracking.models.finite import all_finite
 from resilient_tracking.models.numpy_direct import cholesky_exists
+from resilient_tracking.models.numpy_twins import all_finite
 
 FloatArray = NDArray[np.float64]
 
