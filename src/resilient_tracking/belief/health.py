@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from resilient_tracking.models.numpy_direct import cholesky_exists
 from resilient_tracking.models.numpy_twins import all_finite
 
 FloatArray = NDArray[np.float64]
@@ -124,7 +123,9 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
         return None
-    if not cholesky_exists(sym - shift * _eye(cov.shape[-1])):
+    try:
+        np.linalg.cholesky(sym - shift * _eye(cov.shape[-1]))
+    except np.linalg.LinAlgError:
         return None
     return sym
 
