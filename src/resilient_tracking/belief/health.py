@@ -117,9 +117,7 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
         if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
             return None
         sym = 0.5 * (cov + transposed)
-    # (any rounding of the sum will do: the shift has a margin of 2, and a stack that fails
-    # this test goes to the eigen path, which finds no repair either: the same result)
-    total_trace = sum(sym.diagonal(0, 1, 2).ravel().tolist())
+    total_trace = float(np.add.reduce(sym.diagonal(0, 1, 2), axis=None))
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
         return None
