@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from resilient_tracking.models.robot_motion import SMALL_TEAM
+from resilient_tracking.models.numpy_twins import SMALL as SMALL_TEAM
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.team_config import TeamConfig
 
