@@ -11,7 +11,6 @@ from scipy.stats import chi2
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.numpy_direct import solve as _solve
 from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.models.sensor import wrap_angle
 
@@ -388,20 +387,3 @@ def test_options_off_are_the_paper_update_and_far_away_they_barely_matter() -> N
     assert not np.array_equal(robust.mean, paper.mean)
     with pytest.raises(ValueError, match="at least one iteration"):
         ExtendedKalmanFilter(model, sensor, 0)
-
-
-@pytest.mark.parametrize("outer", ["ignore", "warn", "raise"])
-def test_the_filters_solve_is_numpys_bit_for_bit(outer):
-    """The filter calls LAPACK's solve without np.linalg.solve's wrapper: the same numbers,
-    and a singular system still a LinAlgError, whatever the caller's error settings."""
-    rng = np.random.default_rng(5)
-    a = (np.eye(2) + rng.standard_normal((3, 2, 2))).swapaxes(1, 2)  # (strided, as the filter's)
-    b = rng.standard_normal((3, 2, 4))
-    with np.errstate(all=outer):
-        np.testing.assert_array_equal(_solve(a, b), np.linalg.solve(a, b))
-        singular = a.copy()
-        singular[1] = [[1.0, 2.0], [2.0, 4.0]]
-        with pytest.raises(np.linalg.LinAlgError):
-            np.linalg.solve(singular, b)
-        with pytest.raises(np.linalg.LinAlgError):
-            _solve(singular, b)

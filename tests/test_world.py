@@ -495,19 +495,6 @@ def test_observe_flags_and_links_follow_failures_set_from_outside() -> None:
     assert world.observe().sensing_ok.tolist() == [1, 0, 1]
 
 
-def test_velocity_clip_of_finite_controls_is_the_general_clip() -> None:
-    from resilient_tracking.models.robot_motion import VelocityClip
-
-    rng = np.random.default_rng(3)
-    clip = VelocityClip(
-        np.array([0.5, 1.0, 2.0]), np.array([-1.0, -1.0]), np.array([1.0, 1.0]), 0.1
-    )
-    for _ in range(200):
-        positions = rng.uniform(-1.0, 1.0, (3, 2))
-        controls = rng.normal(0.0, 3.0, (3, 2))
-        assert clip.finite(positions, controls).tobytes() == clip(positions, controls).tobytes()
-
-
 def test_waypoints_kept_goal_is_the_arrays_one() -> None:
     """WaypointsMotion keeps goal − position between steps: positions and velocities are those
     of the array form, step after step, also when the position is set from outside."""
@@ -529,9 +516,9 @@ def test_waypoints_kept_goal_is_the_arrays_one() -> None:
         assert m.velocity.tobytes() == (delta / vector_length(delta) * 0.37).tobytes()
 
 
-def test_small_team_step_in_floats_is_the_array_step() -> None:
-    """World.step clips and moves a small team in Python floats: the same applied velocities
-    and positions as VelocityClip and advance's arrays, at the workspace's edges too."""
+def test_step_moves_by_the_clipped_controls() -> None:
+    """World.step applies clip_controls' velocities and moves each robot by ``u dt``, at the
+    workspace's edges too."""
     rng = np.random.default_rng(5)
     robots = [[3.95, 0.0], [-3.0, 2.95], [0.0, 0.0]]
     world = World(scenario(robots, u_max=[0.5, 1.0, 2.0]), 0)
@@ -539,7 +526,7 @@ def test_small_team_step_in_floats_is_the_array_step() -> None:
         u = rng.normal(0.0, 2.0, (3, 2))
         u[rng.random((3, 2)) < 0.1] = 0.0
         positions = world.robot_positions.copy()
-        expected = world._clip(positions, u)
+        expected = world.clip_controls(u)
         applied = world.step(u)
         assert applied.tobytes() == expected.tobytes()
         moved = positions + np.multiply(expected, world.dt)

@@ -38,10 +38,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.models.finite import all_finite, sum_is_finite
 from resilient_tracking.models.motion import NearlyConstantVelocity
-from resilient_tracking.models.numpy_direct import einsum as _einsum
-from resilient_tracking.models.numpy_direct import solve as _solve
+from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.models.sensor import MeasurementModel, wrap_angle_in_place
 
 FloatArray = NDArray[np.float64]
@@ -99,7 +97,7 @@ class ExtendedKalmanFilter:
         """Prediction: ``ŷ_{t+1|t} = A ŷ_t``, ``P_{t+1|t} = A P_t Aᵀ + Q`` (new object)."""
         a = self._a
         mean = est.mean @ self._at
-        cov = _einsum("ij,njk,lk->nil", a, est.cov, a)
+        cov = np.einsum("ij,njk,lk->nil", a, est.cov, a)
         np.add(cov, self._q, out=cov)  # (in place: the same sum, no second array)
         return TargetEstimate.trusted(mean, _symmetrize(cov))
 
@@ -211,8 +209,8 @@ class ExtendedKalmanFilter:
             hp = hess @ cov[None, :, None, :2, :2]
             var = var + 0.5 * np.einsum("kncab,kncba->knc", hp, hp)
 
-        # every robot measured every target (a finite sum has finite terms): nothing to mask
-        measured_all = sum_is_finite(z)
+        # every robot measured every target: nothing to mask
+        measured_all = all_finite(z)
         valid = _all_true(k, n) if measured_all else np.isfinite(z).all(axis=-1)  # (K, N)
         innov = z - h
         if at is not None:  # iterated EKF: z − h(p_i) − H_i (p̂ − p_i)
@@ -226,15 +224,15 @@ class ExtendedKalmanFilter:
             rinv = np.where(valid[..., None], 1.0 / var, 0.0)
 
         # Information contributed to the position block: J = Σ_k Hᵀ R⁻¹ H, b = Σ_k Hᵀ R⁻¹ z̃.
-        info = _einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
-        b = _einsum("knai,kna,kna->ni", hjac, rinv, innov)
+        info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
+        b = np.einsum("knai,kna,kna->ni", hjac, rinv, innov)
 
         # With W = (I + J P_pp)⁻¹ (always invertible, J may be singular):
         #   (P⁻¹ + Eᵀ J E)⁻¹ Eᵀ = P Eᵀ W =: F,  ŷ⁺ = ŷ + F b,  stacked gain K with K H = F J E.
         # The covariance is then formed in Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, where
         # K R Kᵀ = F J Fᵀ: a sum of congruences, so it stays positive definite numerically.
         m = _EYE2 + info @ cov[:, :2, :2]
-        f = _solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
+        f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
         new_mean = mean + (f @ b[..., None])[..., 0]
         f_info = f @ info
         # I − KH, KH = [F J, 0]: the identity's last two columns as they are (1 − 0 and 0 − 0

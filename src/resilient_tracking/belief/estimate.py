@@ -14,7 +14,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from resilient_tracking.belief.modes import ModeStates
-from resilient_tracking.models.numpy_direct import IN_ORDER, sum_in_order
 
 FloatArray = NDArray[np.float64]
 
@@ -70,10 +69,7 @@ class TargetEstimate:
 
     def position_trace(self) -> float:
         """``Σ_j tr P_j[:2, :2]`` — the tracking-error measure of the paper."""
-        if len(self.cov) > IN_ORDER:
-            return float(np.add.reduce(self.position_traces()))  # (ndarray.sum's, sans wrapper)
-        # a few targets: the same additions in Python floats, in NumPy's order
-        return sum_in_order([p[0][0] + p[1][1] for p in self.cov[:, :2, :2].tolist()])
+        return float(np.add.reduce(self.position_traces()))  # (ndarray.sum's, sans wrapper)
 
     @classmethod
     def initial(cls, means: FloatArray, position_std: float, velocity_std: float) -> TargetEstimate:

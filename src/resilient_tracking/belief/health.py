@@ -20,8 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from resilient_tracking.models.finite import all_finite
-from resilient_tracking.models.numpy_direct import cholesky_exists
+from resilient_tracking.models.numpy_twins import all_finite
 
 FloatArray = NDArray[np.float64]
 
@@ -118,13 +117,13 @@ def _surely_healthy(cov: FloatArray) -> FloatArray | None:
         if np.any(np.abs(cov - transposed).max(axis=(1, 2)) / scale > ASYMMETRY_TOL):
             return None
         sym = 0.5 * (cov + transposed)
-    # (any rounding of the sum will do: the shift has a margin of 2, and a stack that fails
-    # this test goes to the eigen path, which finds no repair either: the same result)
-    total_trace = sum(sym.diagonal(0, 1, 2).ravel().tolist())
+    total_trace = float(np.add.reduce(sym.diagonal(0, 1, 2), axis=None))
     shift = 2.0 * max(EIGEN_FLOOR_RATIO * total_trace, EIGEN_FLOOR_ABS)
     if not math.isfinite(shift):  # a stack too large to shift: the eigen path decides
         return None
-    if not cholesky_exists(sym - shift * _eye(cov.shape[-1])):
+    try:
+        np.linalg.cholesky(sym - shift * _eye(cov.shape[-1]))
+    except np.linalg.LinAlgError:
         return None
     return sym
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from resilient_tracking.belief.agent_view import MAX_ZONES, ViewShape, team_views
 from resilient_tracking.env.reward import StepOutcome, TrackingReward
-from resilient_tracking.models.finite import all_finite
+from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.records import EpisodeResult
 from resilient_tracking.scenario import Scenario

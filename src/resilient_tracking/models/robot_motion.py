@@ -5,9 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Up to this many robots, per-robot arithmetic in Python floats (the same IEEE operations)
-#: costs less than NumPy's calls on arrays of a few numbers
-SMALL_TEAM = 16
+from resilient_tracking.models.numpy_twins import all_finite
 
 
 def clip_velocities(
@@ -40,34 +38,10 @@ class VelocityClip:
         self._lower = np.broadcast_to(lower, shape).copy()
         self._upper = np.broadcast_to(upper, shape).copy()
         self._dt = dt
-        #: the same bounds as flat lists of Python floats, for :meth:`floats`
-        self._flat = [a.ravel().tolist() for a in (self._low, self._high, self._lower, self._upper)]
 
     def __call__(self, positions: np.ndarray, controls: np.ndarray) -> np.ndarray:
         """The velocities applied for ``controls`` (M, 2) of robots at ``positions`` (M, 2)."""
         return _clip(positions, controls, self._low, self._high, self._lower, self._upper, self._dt)
-
-    def finite(self, positions: np.ndarray, controls: np.ndarray) -> np.ndarray:
-        """:meth:`__call__` for ``controls`` already known to be finite (the caller checked):
-        the same numbers without checking again."""
-        u = np.minimum(np.maximum(controls, self._low), self._high)
-        return _to_workspace(positions, u, self._lower, self._upper, self._dt)
-
-    def floats(self, positions: list[float], controls: list[float]) -> list[float]:
-        """:meth:`finite` on flat lists ``[x0, y0, x1, ...]`` of Python floats: the same IEEE
-        operations per component without NumPy's overhead per call (for a small team). Ties
-        of ``max``/``min`` give the bound, the second operand, as NumPy's do (±0)."""
-        low, high, lower, upper = self._flat
-        dt = self._dt
-        out = []
-        for p, u, lo, hi, a, b in zip(positions, controls, low, high, lower, upper, strict=True):
-            u = u if u > lo else lo  # np.maximum(u, low)
-            u = u if u < hi else hi  # np.minimum(…, high)
-            nxt = p + u * dt
-            nxt = nxt if nxt > a else a
-            nxt = nxt if nxt < b else b
-            out.append((nxt - p) / dt)
-        return out
 
 
 def _clip(
@@ -81,7 +55,7 @@ def _clip(
 ) -> np.ndarray:
     """:func:`clip_velocities` with the velocity bounds ``low = −u_max``, ``high = u_max``."""
     u = controls
-    if not np.isfinite(controls).all():  # rare: find whose command it is, it holds position
+    if not all_finite(controls):  # rare: find whose command it is, it holds position
         u = np.where(np.isfinite(controls).all(axis=-1, keepdims=True), controls, 0.0)
     return _to_workspace(positions, np.minimum(np.maximum(u, low), high), lower, upper, dt)
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from resilient_tracking.models.robot_motion import SMALL_TEAM
+from resilient_tracking.models.numpy_twins import all_within
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.team_config import TeamConfig
 
@@ -57,7 +57,7 @@ def decision_problems(
     if controls is not None:
         lower, upper = config.velocity_bounds(list(range(m)), positions)
         # the usual decision passes in one test: a control within its (finite) bounds is finite
-        if not _within(controls, lower, upper):
+        if not all_within(controls, lower, upper, BOUND_TOLERANCE):
             problems += _control_problems(controls, lower, upper)
     modes = decision.modes
     if not (isinstance(modes, list | tuple) and len(modes) == m):
@@ -67,26 +67,6 @@ def decision_problems(
     elif not all(isinstance(x, str) for x in modes):
         problems.append(DecisionProblem(None, "modes", "modes must be strings"))
     return controls, problems
-
-
-def _within(controls: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
-    """Whether every control is within its bounds, to the tolerance (NaN is not)."""
-    if (
-        type(lower) is np.ndarray
-        and type(upper) is np.ndarray
-        and lower.shape == upper.shape == controls.shape
-        and len(controls) <= SMALL_TEAM
-    ):
-        # a small team's in Python floats: the same subtractions, additions and comparisons
-        tol = BOUND_TOLERANCE
-        for u, lo, hi in zip(
-            controls.ravel().tolist(), lower.ravel().tolist(), upper.ravel().tolist(), strict=True
-        ):
-            if not (lo - tol <= u <= hi + tol):
-                return False
-        return True
-    lo, hi = np.subtract(lower, BOUND_TOLERANCE), np.add(upper, BOUND_TOLERANCE)
-    return bool(((controls >= lo) & (controls <= hi)).all())
 
 
 def _control_problems(

@@ -24,7 +24,7 @@ import numpy as np
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.build import prior_estimate
 from resilient_tracking.events import Event
-from resilient_tracking.models.finite import all_finite
+from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook
 from resilient_tracking.policies.base import Decision

@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from resilient_tracking.models.numpy_direct import einsum
 from resilient_tracking.scenario import DiskHazard, GaussianHazard, SensingZone
 from resilient_tracking.world.hazard_model import HAZARDS, HazardModel, HazardZone
 
@@ -21,7 +20,7 @@ def gaussian_pdf(x: np.ndarray, mu: np.ndarray, sigma: np.ndarray) -> np.ndarray
 def _pdf(x: np.ndarray, mu: np.ndarray, inv: np.ndarray, norm: float) -> np.ndarray:
     """:func:`gaussian_pdf` with ``Σ⁻¹`` and ``2π √det Σ`` given, at the rows of ``x`` (2-D)."""
     diff = x - mu
-    m2 = einsum("ni,ij,nj->n", diff, inv, diff)  # (np.einsum's own routine, sans wrapper)
+    m2 = np.einsum("ni,ij,nj->n", diff, inv, diff)
     # (ufuncs called by name: faster than the operators with a Python float, same numbers)
     return np.divide(np.exp(np.multiply(-0.5, m2)), norm)
 

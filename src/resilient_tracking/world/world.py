@@ -11,7 +11,6 @@ the robots what they can know: measurements, their own failures, attack clues an
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
 from typing import cast
 
@@ -19,7 +18,8 @@ import numpy as np
 
 from resilient_tracking.events import Event
 from resilient_tracking.models.geometry import row_norms
-from resilient_tracking.models.robot_motion import SMALL_TEAM, VelocityClip
+from resilient_tracking.models.numpy_twins import all_finite
+from resilient_tracking.models.robot_motion import VelocityClip
 from resilient_tracking.observation import Attack, FailureKind, TeamObservation
 from resilient_tracking.rng import stream
 from resilient_tracking.scenario import CommZone, Scenario
@@ -247,39 +247,20 @@ class World:
         u = np.asarray(controls, dtype=float)
         if u.shape != (self.n_robots, 2):
             raise ValueError(f"controls have shape {u.shape}, expected ({self.n_robots}, 2)")
-        m = len(u)
-        if m <= SMALL_TEAM:
-            flat = u.ravel().tolist()
-            if math.isfinite(sum(flat)):  # finite sum: every control finite (else the long way)
-                # clip and move in Python floats: the same operations as the arrays' below
-                positions = self.robot_positions.ravel().tolist()
-                applied = self._clip.floats(positions, flat)
-                dt = self.dt
-                moved = [p + v * dt for p, v in zip(positions, applied, strict=True)]
-                self.robot_positions = np.array(moved).reshape(m, 2)
-                self._move_targets()
-                return np.array(applied).reshape(m, 2)
-        if np.isfinite(u).all():
-            u = self._clip.finite(self.robot_positions, u)  # checked: not again in the clip
-        else:
-            bad = ~np.isfinite(u).all(axis=1)
+        if not all_finite(u):  # (the clip holds such a robot)
             log.warning(
                 "step %d: the controls of robots %s are not finite; they hold position",
                 self.step_index,
-                np.flatnonzero(bad).tolist(),
+                np.flatnonzero(~np.isfinite(u).all(axis=1)).tolist(),
             )
-            u = self.clip_controls(u)
-        self.advance(u)
-        return u
+        applied = self.clip_controls(u)
+        self.advance(applied)
+        return applied
 
     def advance(self, applied: np.ndarray) -> None:
         """Advance one step with velocities already clipped by
         :func:`~resilient_tracking.models.robot_motion.clip_velocities`."""
         self.robot_positions = self.robot_positions + np.multiply(applied, self.dt)
-        self._move_targets()
-
-    def _move_targets(self) -> None:
-        """The rest of :meth:`advance` once the robots have moved: targets, then zones."""
         if self._reacting:
             around = self.surroundings()
             for target in self._reacting:
