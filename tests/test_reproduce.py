@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from resilient_tracking.cli import main
-from resilient_tracking.experiments import catalog as catalog_module
+from resilient_tracking.experiments import arms as arms_module
 from resilient_tracking.experiments.catalog import (
     ADVERSARIAL,
     ADVERSARIAL_SUITE_SEEDS,
@@ -127,7 +127,7 @@ def test_a_run_stored_by_other_code_is_stale(tmp_path, monkeypatch):
     assert is_done(tmp_path, todo[0])
     manifest = json.loads((run_dir(tmp_path, todo[0]) / "manifest.json").read_text())
     assert manifest["code"] == code_digest()
-    monkeypatch.setattr(catalog_module, "code_digest", lambda: "another-code")
+    monkeypatch.setattr(arms_module, "code_digest", lambda: "another-code")
     assert not is_done(tmp_path, todo[0])
 
 
