@@ -13,7 +13,7 @@ from __future__ import annotations
 import pytest
 
 from helpers import SCENARIOS
-from resilient_tracking.experiments.compare import compare
+from resilient_tracking.experiments.in_memory import compare
 from resilient_tracking.scenario.teams import get_team
 
 pytestmark = pytest.mark.slow

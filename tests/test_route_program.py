@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from conftest import SCENARIOS
-from resilient_tracking.experiments.compare import compare
+from resilient_tracking.experiments.in_memory import compare
 
 pytestmark = pytest.mark.slow
 

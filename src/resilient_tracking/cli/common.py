@@ -94,12 +94,12 @@ def load_or_report(
 ) -> Scenario | None:
     """A scenario given by file path or shipped name, run by ``team`` when given and changed
     by ``--set`` ``overrides`` (``dotted.path=value``), or None after printing why not."""
-    from resilient_tracking import builtin_scenarios as scenarios
+    from resilient_tracking import builtin_scenarios
     from resilient_tracking.experiments.comparison import parse_override
     from resilient_tracking.scenario.overrides import overridden
 
     try:
-        scenario = scenarios.load(path)
+        scenario = builtin_scenarios.load(path)
         if team is not None:
             scenario = scenario.with_team(team)
         changes = dict(parse_override(text) for text in overrides)

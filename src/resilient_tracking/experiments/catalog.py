@@ -20,7 +20,7 @@ from typing import Any
 
 import yaml
 
-from resilient_tracking import builtin_scenarios as scenarios
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments.arms import Experiment, Task, Variant, team_arm
 from resilient_tracking.experiments.generator import (
     stored_adversarial_suite,
@@ -34,7 +34,7 @@ from resilient_tracking.scenario.teams import get_team
 
 def default_scenario_dir() -> Path:
     """The shipped scenarios (package data, found from any working directory)."""
-    return scenarios.folder()
+    return builtin_scenarios.folder()
 
 
 #: Risk levels of the comparison with SOG (docs/model.md §7): ours ε1 and SOG ρ2 per level.
