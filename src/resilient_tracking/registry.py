@@ -51,6 +51,7 @@ class Registry(Generic[T]):
         self._builtins = builtins
         self._entries: dict[str, T] = {}
         self._loaded = False
+        self._entry_point_names: set[str] | None = None
 
     def register(self, name: str) -> Callable[[T], T]:
         """Class decorator: ``@POLICIES.register("greedy")`` makes the class findable by name."""
@@ -98,10 +99,12 @@ class Registry(Generic[T]):
         return None
 
     def names(self) -> list[str]:
-        """Registered names and entry-point names, sorted (dotted paths are not listed)."""
+        """Registered names and entry-point names, sorted (dotted paths are not listed); the
+        installed packages' entry points are read once per process."""
         self._load_builtins()
-        found = set(self._entries) | {ep.name for ep in entry_points(group=self.group)}
-        return sorted(found)
+        if self._entry_point_names is None:
+            self._entry_point_names = {ep.name for ep in entry_points(group=self.group)}
+        return sorted(set(self._entries) | self._entry_point_names)
 
     def builtin_names(self) -> list[str]:
         """Names registered by this package's own modules, in the order of the ``builtins``
