@@ -1,13 +1,13 @@
 """Reference measurement: what a team whose filter *knows* every degraded sensor's true noise
-would report, against the paper's team and the extended team (docs/beyond.md, *What the trace
+would report, against the default team and the ``beyond`` team (docs/beyond.md, *What the trace
 targets ask*).
 
-The paper's team keeps the nominal noise of a silently degraded sensor, so its covariance is
+The default team keeps the nominal noise of a silently degraded sensor, so its covariance is
 smaller than its errors (NEES far above 2) and its trace is small. The reference team is the
-paper's team with the degradation watch, the watch replaced by an oracle: at every tick each
+default team with the degradation watch, the watch replaced by an oracle: at every tick each
 robot's noise scale is its true one (the square of the world's noise factor), found at the
-degradation's onset, with the watch's zone clue and careful update; it has none of the extended
-team's other options, so it differs from the paper's team only where a sensor is degraded.
+degradation's onset, with the watch's zone clue and careful update; it has none of the ``beyond``
+team's other options, so it differs from the default team only where a sensor is degraded.
 Reading the world is what makes it a reference: no team can do better at knowing its noise.
 With ``--known-zones`` every zone is also known from the start (a hazard map), so the team can
 keep out of it.
@@ -40,7 +40,7 @@ from resilient_tracking.scenario.overrides import every_zone_known, overridden
 from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world.degradation import Degradations
 
-TEAMS = ("paper", "extended", "known noise")
+TEAMS = ("default", "beyond", "known noise")
 WATCH = "belief.degradation_watch.enabled"
 
 
@@ -60,7 +60,7 @@ def _oracle(watch: DegradationWatch, truth: Degradations) -> Any:
 
 def run(scenario: Scenario, team: str, seed: int, known_zones: bool) -> dict[str, float]:
     """One episode of ``team``; its mean trace, MSE and position NEES."""
-    if team == "extended":
+    if team == "beyond":
         scenario = scenario.with_team("beyond")
     elif team == "known noise":
         scenario = overridden(scenario, {WATCH: True})
@@ -113,9 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     means = frame.groupby(["scenario", "team"], sort=False)[["trace", "mse", "nees"]].mean()
     print(means.unstack("team").to_string(float_format=lambda v: f"{v:.4g}"))
     trace = frame.groupby(["scenario", "team"])["trace"].mean().unstack("team")
-    below = int((trace["known noise"] > trace["paper"]).sum())
+    below = int((trace["known noise"] > trace["default"]).sum())
     print(
-        f"\nscenarios where the known-noise team's mean trace is above the paper's team's: "
+        f"\nscenarios where the known-noise team's mean trace is above the default team's: "
         f"{below} of {len(trace)}"
     )
     return 0

@@ -4,7 +4,7 @@
 Runs the teams ``default``, ``adversarial`` and ``guarded`` (the adversarial team with the
 lure guard) on the stored adversarial suite, whose targets evade, lure or keep
 to their lanes, and prints each team's mean trace and MSE and the share of scenarios in which
-it has the lower trace, and the lower MSE, than the paper's team: the numbers that decide
+it has the lower trace, and the lower MSE, than the default team: the numbers that decide
 whether the guard belongs in the adversarial team (the suite's target is 85 %).
 
     python tools/lure_guard_suite_reference.py            # the 30 scenarios, seed 1 each
@@ -53,13 +53,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         for team in TEAMS
     }
-    paper = results["paper"]
+    default = results["default"]
     n = args.scenarios
-    print("| team | mean trace | mean MSE | lower trace than the paper's team | lower MSE |")
+    print("| team | mean trace | mean MSE | lower trace than the default team | lower MSE |")
     print("|---|---|---|---|---|")
     for team, r in results.items():
-        wins = "–" if team == "paper" else f"{(r[:, 0] < paper[:, 0]).sum()}/{n}"
-        mse_wins = "–" if team == "paper" else f"{(r[:, 1] < paper[:, 1]).sum()}/{n}"
+        wins = "–" if team == "default" else f"{(r[:, 0] < default[:, 0]).sum()}/{n}"
+        mse_wins = "–" if team == "default" else f"{(r[:, 1] < default[:, 1]).sum()}/{n}"
         print(f"| {team} | {r[:, 0].mean():.4f} | {r[:, 1].mean():.4f} | {wins} | {mse_wins} |")
     return 0
 
