@@ -138,17 +138,17 @@ class FailureAwarePolicy(PlanningPolicy):
             weights = self._situation_weights(cooling, alone, attacked, m)
             mode = "individual" if alone else "cooldown" if cooling else "league"
             rows = self._zone_rows(knowledge, weights[4], alone, eps_sensing)
-            table, _, keys, n_sensing = rows
+            table, comm_rows, keys, n_sensing = rows
             for guard in self.guards:
                 guard.after_rows(keys, table, n_sensing, robots, obs)
-            sensing_rows = rows[0]
+            sensing_rows = table
             for guard in self.guards:  # the guards' own eq. 7c rows, after the zones'
                 own, events = guard.league_rows(
                     obs.step,
                     robots,
                     belief.estimates[k],
                     belief.predicted(k),
-                    rows[0],
+                    table,
                     obs,
                     self.beta1,
                 )
@@ -157,7 +157,7 @@ class FailureAwarePolicy(PlanningPolicy):
                     sensing_rows = np.vstack([sensing_rows, own])
             sensing = obs.sensing_ok[robots].astype(float)
             q = self.tracking_inputs(
-                belief, obs, robots, k, weights[:4], sensing, sensing_rows, rows[1]
+                belief, obs, robots, k, weights[:4], sensing, sensing_rows, comm_rows
             )
             decision.controls[robots] = self.solve(robots, q, obs.step, decision)
             self.last_weights[robots] = weights
