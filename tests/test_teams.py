@@ -114,3 +114,10 @@ def test_the_learning_environment_takes_a_team():
     env = TeamEnv("sensing-temp", team="beyond", steps=5)
     scenario = env.session.scenario
     assert scenario.team == "beyond" and scenario.belief.zone_motion.enabled
+
+
+def test_scenarios_are_equal_by_their_settings_not_by_how_they_were_written():
+    written = Scenario.parse(_data() | {"team": "paper"})
+    spelled_out = Scenario.parse(written.model_dump(mode="json"))
+    assert written == spelled_out and written.own_data() != spelled_out.own_data()
+    assert written != written.with_team("default")

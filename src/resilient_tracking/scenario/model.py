@@ -196,6 +196,13 @@ class Scenario(Strict):
         scenario._own = copy.deepcopy(data)
         return scenario
 
+    def __eq__(self, other: object) -> bool:
+        """Scenarios are equal when their settings are: how each was written (its own mapping,
+        before its team filled it in) does not count."""
+        if not isinstance(other, Scenario):
+            return NotImplemented
+        return self.__dict__ == other.__dict__
+
     def own_data(self) -> dict[str, Any]:
         """A copy of the mapping this scenario says itself, without what its team fills in:
         what :meth:`with_team`, :meth:`with_overrides` and :func:`~.overrides.overridden` change
