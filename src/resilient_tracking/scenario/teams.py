@@ -132,11 +132,9 @@ def team_listing() -> str:
     blocks = []
     for team in TEAMS.values():
         lines = [f"{team.name}: {team.summary}"]
-        fixed = team.settings or {"": "nothing: the defaults"}
-        lines += [
-            f"    {path}: {_shown(value)}" if path else f"    {value}"
-            for path, value in fixed.items()
-        ]
+        lines += [f"    {path}: {_shown(value)}" for path, value in team.settings.items()]
+        if not team.settings:
+            lines.append("    nothing: the defaults")
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks)
 

@@ -74,9 +74,8 @@ class GuardsSpec(BaseModel):
     def names(self) -> list[str]:
         """Every guard taking part: the built-ins in their order, then installed ones, then
         those only this section names, each once."""
-        found = GUARDS.builtin_names() + [
-            n for n in GUARDS.names() if n not in GUARDS.builtin_names()
-        ]
+        builtin = GUARDS.builtin_names()
+        found = builtin + [n for n in GUARDS.names() if n not in builtin]
         return found + [n for n in self.sections() if n not in found]
 
     def enabled(self) -> list[str]:
@@ -85,4 +84,5 @@ class GuardsSpec(BaseModel):
 
     def build(self, config: TeamConfig, method: FailureAwareParams) -> list[Guard]:
         """The guards switched on, for team ``config`` and the policy's parameters ``method``."""
-        return [GUARDS.get(n)(self.params_for(n), config, method) for n in self.enabled()]
+        chosen = [(n, self.params_for(n)) for n in self.names()]
+        return [GUARDS.get(n)(params, config, method) for n, params in chosen if params.enabled]
