@@ -31,7 +31,14 @@ def found() -> dict[str, dict[str, str]]:
     """Every run's fingerprints, from one process with the BLAS kernels pinned
     (``PINNED_ENV``: this process loaded NumPy long ago)."""
     done = subprocess.run(
-        [sys.executable, "-m", fingerprints.MODULE, "--json"],
+        [
+            sys.executable,
+            "-m",
+            fingerprints.MODULE,
+            "--json",
+            "--golden",
+            str(ROOT / fingerprints.GOLDEN),
+        ],
         env={**os.environ, **PINNED_ENV},
         capture_output=True,
         text=True,

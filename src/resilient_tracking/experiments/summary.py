@@ -8,6 +8,8 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking.experiments.known_zones import losses_by_knowledge
+from resilient_tracking.runs.bound import LINEAR_GAUSSIAN_MOTIONS
+from resilient_tracking.runs.metrics import anees_band
 from resilient_tracking.runs.reading import RunData, attack_table
 
 
@@ -55,9 +57,49 @@ def robots_lost(events: pd.DataFrame) -> int:
     return int(lost["robot"].nunique())
 
 
+def consistency(team: pd.DataFrame, n_targets: int) -> dict[str, Any]:
+    """The run's ANEES (mean of the per-step position NEES), its 95 % χ² band for the run's
+    ``steps × targets`` samples (:func:`~resilient_tracking.runs.metrics.anees_band`), and
+    whether it lies inside."""
+    anees = float(team["nees"].mean())
+    low, high = anees_band(max(1, len(team) * n_targets))
+    return {
+        "anees": anees,
+        "anees_low": low,
+        "anees_high": high,
+        "anees_in_band": bool(low <= anees <= high),
+    }
+
+
+def bound_exact(run: RunData) -> bool:
+    """Whether every target of the run moves by the linear-Gaussian model the bound assumes
+    (:data:`~resilient_tracking.runs.bound.LINEAR_GAUSSIAN_MOTIONS`): its bound is a true
+    bound, not an indicative one."""
+    targets = run.scenario.get("targets", []) or []
+    return bool(targets) and all(
+        (t.get("motion") or {}).get("type") in LINEAR_GAUSSIAN_MOTIONS for t in targets
+    )
+
+
+def bound_summary(run: RunData) -> dict[str, Any]:
+    """The run's mean bound, its efficiency (mean bound ÷ mean MSE: 1 for an estimator that
+    meets the bound), and whether the bound is exact; NaN when the run has no bound."""
+    team = run.team
+    values = team["bound"] if "bound" in team else pd.Series(dtype=float)
+    if values.isna().all():
+        return {"bound": float("nan"), "efficiency": float("nan"), "bound_exact": False}
+    bound = float(values.mean())
+    return {
+        "bound": bound,
+        "efficiency": bound / float(team["mse"].mean()),
+        "bound_exact": bound_exact(run),
+    }
+
+
 def summarise_run(run: RunData) -> dict[str, Any]:
     """The summary row of one run: its experiment, variant, policy, seed and tags, team size, and
-    metrics (mean and final trace, MSE, failures, attacks, solver fallbacks, stragglers...)."""
+    metrics (mean MSE, NLL, ANEES with its band, the bound when computed, mean and final trace,
+    failures, attacks, solver fallbacks, stragglers...)."""
     team, events = run.team, run.events
     attacks = attack_table(run)
     n_robots = int(run.robots["robot"].nunique())
@@ -65,6 +107,7 @@ def summarise_run(run: RunData) -> dict[str, Any]:
     robots_end, targets_end = final_positions(run)
     fallbacks = events["event"] == "solver_fallback" if len(events) else pd.Series(dtype=bool)
     far = stragglers(robots_end, targets_end, STRAGGLER_DISTANCE)
+    n_targets = int(run.targets["target"].nunique())
     return {
         "experiment": run.manifest.get("experiment", ""),
         "variant": run.manifest.get("variant", run.policy),
@@ -72,10 +115,13 @@ def summarise_run(run: RunData) -> dict[str, Any]:
         "seed": run.seed,
         **{f"tag_{k}": v for k, v in tags.items()},
         "robots": n_robots,
-        "targets": int(run.targets["target"].nunique()),
+        "targets": n_targets,
         "steps": len(team),
-        "trace": float(team["trace"].mean()),
         "mse": float(team["mse"].mean()),
+        "nll": float(team["nll"].mean()),
+        **consistency(team, n_targets),
+        **bound_summary(run),
+        "trace": float(team["trace"].mean()),
         "final_trace": float(team["trace"].iloc[-1]),
         "last_third_trace": last_third_mean(team),
         "effort": float(team["effort"].mean()),

@@ -312,8 +312,8 @@ class TrackerNode:
             return False
         self._publish_commands(positions, applied, msg.header.stamp)
         self.team_rows.step(obs, out, applied, self.team.belief)
-        estimate = self.team.belief.team_estimate().mean[:, :2]
-        self.truth_rows.step(obs.step, truth_xy, estimate)
+        estimate = self.team.belief.team_estimate()
+        self.truth_rows.step(obs.step, truth_xy, estimate.mean[:, :2], estimate.cov[:, :2, :2])
         header = msgs.Header(stamp=msg.header.stamp, frame_id=self.settings.frame)
         view = BeliefView.of(self.team.belief, positions, out.decision.modes)
         altitude = self.settings.altitude

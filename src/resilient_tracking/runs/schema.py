@@ -111,6 +111,27 @@ TEAM = Table(
         _c(
             "mse", "float64", "m²", "(1/N) Σ_j ‖ŷ_j − y_j‖² of the team estimate, vs truth", "truth"
         ),
+        _c(
+            "nll",
+            "float64",
+            "nats",
+            "(1/N) Σ_j Gaussian NLL of the true position y_j under N(ŷ_j, P_j), vs truth",
+            "truth",
+        ),
+        _c(
+            "nees",
+            "float64",
+            "",
+            "(1/N) Σ_j (ŷ_j − y_j)ᵀ P_j⁻¹ (ŷ_j − y_j), position NEES (2 when consistent)",
+            "truth",
+        ),
+        _c(
+            "bound",
+            "float64",
+            "m²",
+            "(1/N) Σ_j tr of the posterior Cramér–Rao bound of the position; NaN unless asked",
+            "truth",
+        ),
         _c("trace", "float64", "m²", "Σ_j tr P_j of the team estimate's position blocks"),
         _c("effort", "float64", "m/s", "Σ_i ‖u_i‖ of the applied velocities"),
         _c("n_sensing_failed", "int64", "", "robots whose sensor is down"),
@@ -160,6 +181,7 @@ TARGETS = Table(
         _c("est_y", "float64", "m", "team estimate of the position"),
         _c("var_x", "float64", "m²", "variance of est_x"),
         _c("var_y", "float64", "m²", "variance of est_y"),
+        _c("cov_xy", "float64", "m²", "covariance of est_x and est_y"),
     ),
     keys=("step", "target"),
 )

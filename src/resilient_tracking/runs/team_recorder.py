@@ -40,7 +40,7 @@ class TeamRecorder:
     ) -> None:
         """Record one tick: its events and the zones learned, the team row (trace, effort,
         failures, leagues, solver counts), its planning time, one row per robot, and the
-        estimate and variances of every target."""
+        estimate and position covariance of every target."""
         k = obs.step
         for e in out.events:  # every event of the tick, attacks and learned zones included
             self.event(e)
@@ -97,6 +97,7 @@ class TeamRecorder:
             est_y=est.mean[:, 1],
             var_x=var[:, 0],
             var_y=var[:, 1],
+            cov_xy=est.cov[:, 0, 1],
         )
 
     def tables(self) -> dict[str, pd.DataFrame]:

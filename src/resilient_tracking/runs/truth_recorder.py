@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking.events import Event
-from resilient_tracking.runs.metrics import mse
+from resilient_tracking.runs.metrics import mse, step_scores
 from resilient_tracking.runs.records import ColumnTable
 from resilient_tracking.runs.schema import EVENTS, TARGETS, TEAM, ZONE_TRACKS, ZONES
 
@@ -102,7 +102,8 @@ def zone_tracks(zones: Sequence[ZoneTruth], steps: int) -> pd.DataFrame:
 
 
 class TruthRecorder:
-    """Rows of truth's columns: the targets' true positions and the MSE of the team estimate."""
+    """Rows of truth's columns: the targets' true positions and the team estimate's error
+    against them."""
 
     def __init__(self, n_targets: int, steps: int, zones: Sequence[ZoneTruth] = ()):
         self.team = ColumnTable(TEAM.numpy_dtypes("truth"), steps)
@@ -111,10 +112,19 @@ class TruthRecorder:
         self.events = ColumnTable(EVENTS.numpy_dtypes())
         self._zones = zones
 
-    def step(self, step: int, truth: np.ndarray, estimate: np.ndarray) -> None:
-        """Record step ``step``: true positions ``truth`` (N, 2) and the team's estimated
-        positions ``estimate`` (N, 2) of the same step."""
-        self.team.append_row(step=step, mse=mse(estimate, truth))
+    def step(
+        self,
+        step: int,
+        truth: np.ndarray,
+        estimate: np.ndarray,
+        cov: np.ndarray,
+        bound: float = float("nan"),
+    ) -> None:
+        """Record step ``step``: true positions ``truth`` (N, 2), the team's estimated positions
+        ``estimate`` (N, 2) of the same step with their covariances ``cov`` (N, 2, 2), and the
+        step's bound (:mod:`~resilient_tracking.runs.bound`; NaN when not computed)."""
+        nll, nees = step_scores(estimate, truth, cov)
+        self.team.append_row(step=step, mse=mse(estimate, truth), nll=nll, nees=nees, bound=bound)
         n = len(truth)
         self.targets.append(n, step=step, target=np.arange(n), x=truth[:, 0], y=truth[:, 1])
 

@@ -28,6 +28,7 @@ from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.planner import FaultHook
 from resilient_tracking.policies.base import Decision
+from resilient_tracking.runs.bound import PositionBound
 from resilient_tracking.runs.manifest import episode_manifest
 from resilient_tracking.runs.metrics import mse
 from resilient_tracking.runs.records import EpisodeResult, join_tables
@@ -97,6 +98,7 @@ class EpisodeStepper:
         seed: int,
         fault_hook: FaultHook | None = None,
         record: bool = True,
+        bound: bool = False,
     ):
         self.scenario = scenario
         self.policy_name = policy
@@ -113,6 +115,9 @@ class EpisodeStepper:
             if record
             else None
         )
+        #: the posterior Cramér–Rao bound, step by step, when asked (and recording)
+        self.bound = position_bound(scenario, self.world) if bound and record else None
+        self._bound_now = float("nan")
         #: the MSE of the team's estimate at the last step acted (NaN before the first)
         self.last_mse = float("nan")
         #: steps acted (and recorded) so far
@@ -131,10 +136,15 @@ class EpisodeStepper:
     def sense(self) -> TeamObservation:
         """Observe the world at the current step and update the team's belief with it."""
         self.obs = obs = self.world.observe()
-        self._truth = self.world.target_states
+        self._truth = truth = self.world.target_states
         truth_events = self.world.take_truth_events()
         if self.rows is not None and truth_events:
             self.rows[1].record_events(truth_events)
+        if self.bound is not None:
+            world = self.world
+            factors = np.array([world.degradations.noise_factor(i) for i in range(obs.n_robots)])
+            measured = np.asarray(~np.isnan(obs.measurements).any(axis=2))
+            self._bound_now = self.bound.step(obs.positions, measured, factors, truth[:, :2])
         self._events = self.team.perceive(obs)
         return obs
 
@@ -151,7 +161,13 @@ class EpisodeStepper:
         if self.rows is not None:
             team_rows, truth_rows = self.rows
             team_rows.step(obs, out, applied, self.team.belief)
-            truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2])
+            truth_rows.step(
+                obs.step,
+                truth[:, :2],
+                estimate.mean[:, :2],
+                estimate.cov[:, :2, :2],
+                self._bound_now,
+            )
             self.last_mse = float(truth_rows.team.last("mse"))
         else:
             self.last_mse = mse(estimate.mean[:, :2], truth[:, :2])
@@ -173,21 +189,38 @@ class EpisodeStepper:
         return EpisodeResult(join_tables(team_rows.tables(), truth_rows.tables()), manifest)
 
 
+def position_bound(scenario: Scenario, world: World) -> PositionBound:
+    """The posterior Cramér–Rao bound of an episode of ``scenario`` in ``world``
+    (:mod:`~resilient_tracking.runs.bound`), with the team's prior and estimator model."""
+    spec = scenario.estimator
+    return PositionBound(
+        world.sensor,
+        scenario.dt,
+        [t.motion for t in scenario.targets],
+        spec.accel_std,
+        spec.initial_position_std,
+        spec.initial_velocity_std,
+    )
+
+
 def run_episode(
     scenario: Scenario,
     policy: str | None = None,
     seed: int | None = None,
     progress: Callable[[int], object] | None = None,
     fault_hook: FaultHook | None = None,
+    bound: bool = False,
 ) -> EpisodeResult:
     """Run one episode; ``progress`` is called with the number of steps done.
 
-    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`).
+    ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`);
+    ``bound``: also compute the posterior Cramér–Rao bound (the team table's ``bound``
+    column, else NaN).
     """
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
-    stepper = EpisodeStepper(scenario, policy_name, seed, fault_hook)
+    stepper = EpisodeStepper(scenario, policy_name, seed, fault_hook, bound=bound)
     for _ in range(scenario.steps):
         stepper.sense()
         stepper.act()

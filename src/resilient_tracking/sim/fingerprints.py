@@ -7,6 +7,11 @@ bit-for-bit table (:data:`~resilient_tracking.runs.schema.REPRODUCIBLE`) of a fi
 prints ``same`` or ``DIFFERENT <tables>`` per run. ``tests/test_golden_tables.py`` compares
 the same way. Every run uses the paper's one-step planner program.
 
+The golden file also records, under ``"_columns"``, the columns of each table it fingerprints
+(those the tables had when it was written): a column added since is left out of the comparison,
+so adding one leaves the golden runs as they were, and every column that was there must still
+be bit for bit.
+
 Bit for bit holds on one kind of CPU: OpenBLAS picks its kernels by CPU (and NumPy its SIMD
 loops), and an AVX-512 kernel rounds differently from an AVX2 one. So the fingerprints are
 taken with both pinned (:data:`~resilient_tracking.kernels.PINNED_ENV`, set before NumPy
@@ -27,7 +32,7 @@ import pandas as pd
 
 from resilient_tracking import builtin_scenarios
 from resilient_tracking.kernels import PINNED_ENV, pinned
-from resilient_tracking.runs.schema import REPRODUCIBLE
+from resilient_tracking.runs.schema import REPRODUCIBLE, TABLES
 from resilient_tracking.scenario import Scenario, load_scenario
 from resilient_tracking.sim.episode import run_episode
 
@@ -47,6 +52,8 @@ SHIPPED = (
     "bench-complex",
 )
 SEED = 7
+#: The golden file's entry naming the columns fingerprinted per table.
+COLUMNS_KEY = "_columns"
 #: (scenario, policy) pairs fingerprinted, each over the scenario's full length at SEED.
 RUNS: list[tuple[str, str]] = [
     (name, policy) for name in SHIPPED for policy in ("failure_aware", "vanilla", "sog")
@@ -67,13 +74,26 @@ def fingerprinted_scenario(name: str) -> Scenario:
     return load_scenario(builtin_scenarios.path(name)).with_team("paper")
 
 
-def fingerprints(runs: Sequence[tuple[str, str]] = RUNS) -> dict[str, dict[str, str]]:
-    """``"<scenario>/<policy>"`` → table name → fingerprint, for each of ``runs``."""
+def fingerprints(
+    runs: Sequence[tuple[str, str]] = RUNS, columns: dict[str, list[str]] | None = None
+) -> dict[str, dict[str, str]]:
+    """``"<scenario>/<policy>"`` → table name → fingerprint, for each of ``runs``, of each
+    table's ``columns`` (by table name; every column of a table it does not name)."""
+    columns = columns or {}
     out: dict[str, dict[str, str]] = {}
     for name, policy in runs:
         result = run_episode(fingerprinted_scenario(name), policy=policy, seed=SEED)
-        out[f"{name}/{policy}"] = {t: table_hash(result.tables[t]) for t in REPRODUCIBLE}
+        out[f"{name}/{policy}"] = {
+            t: table_hash(result.tables[t][columns.get(t, list(result.tables[t].columns))])
+            for t in REPRODUCIBLE
+        }
     return out
+
+
+def recorded_columns(golden: dict[str, object]) -> dict[str, list[str]]:
+    """The columns per table a golden file fingerprints (none named: every column)."""
+    found = golden.get(COLUMNS_KEY, {})
+    return dict(found) if isinstance(found, dict) else {}
 
 
 def differences(found: dict[str, dict[str, str]], golden: dict[str, dict[str, str]]) -> list[str]:
@@ -101,18 +121,23 @@ def main(argv: Sequence[str] | None = None) -> None:
         help="only the runs of this policy (with --write: re-record only their entries)",
     )
     args = parser.parse_args(args_list)
-    found = fingerprints([r for r in RUNS if args.policy in (None, r[1])])
-    if args.json:
-        print(json.dumps(found))
-        return
     golden_path: Path = args.golden
-    if args.write:
-        recorded = json.loads(golden_path.read_text()) if golden_path.exists() else {}
-        recorded.update(found)
+    golden = json.loads(golden_path.read_text()) if golden_path.exists() else {}
+    runs = [r for r in RUNS if args.policy in (None, r[1])]
+    if args.write:  # every column of today's tables
+        columns = {t: TABLES[t].names for t in REPRODUCIBLE}
+        if args.policy is not None and recorded_columns(golden) != columns:
+            parser.error("--policy re-records some runs only: the golden file's columns differ")
+        found = fingerprints(runs, columns)
+        recorded = {**golden, **found, COLUMNS_KEY: columns}
         golden_path.write_text(json.dumps(recorded, indent=1, sort_keys=True) + "\n")
         print(f"wrote {golden_path}")
         return
-    print("\n".join(differences(found, json.loads(golden_path.read_text()))))
+    found = fingerprints(runs, recorded_columns(golden))
+    if args.json:
+        print(json.dumps(found))
+        return
+    print("\n".join(differences(found, golden)))
 
 
 if __name__ == "__main__":
