@@ -18,11 +18,11 @@ from resilient_tracking.experiments.comparison import (
     parse_seeds,
 )
 from resilient_tracking.experiments.comparison_stats import (
-    confidence_interval,
     last_third_ratios,
     summary_table,
     wins,
 )
+from resilient_tracking.experiments.paired import confidence_interval
 from resilient_tracking.scenario import ScenarioError
 from resilient_tracking.scenario.overrides import overridden
 
@@ -229,14 +229,14 @@ def test_by_zone_kind_needs_two_policies():
 
 def test_compare_reports_the_zone_free_ratio_and_win_rates_by_zone_kind(tmp_path, capsys):
     out = tmp_path / "Z"
-    argv = ["compare", "sensing-temp", "comm-temp", "--seeds", "3-3", "--set", "steps=12"]
+    argv = ["compare", "sensing-temp", "comm-temp", "--seeds", "2-3", "--set", "steps=12"]
     argv += ["--zone-free", "--by-zone-kind", "--out", str(out), "--jobs", "1", "-q"]
     assert main(argv) == 0
-    assert "6 run(s) done" in capsys.readouterr().out
+    assert "12 run(s) done" in capsys.readouterr().out
     free = out / "runs" / "comm-temp" / "failure_aware-nozone" / "seed-003"
     assert json.loads((free / "manifest.json").read_text())["scenario"]["zones"] == []
     runs = pd.read_csv(out / "runs.csv")
-    assert runs.groupby("tag_no_zones").size().to_dict() == {False: 4, True: 2}
+    assert runs.groupby("tag_no_zones").size().to_dict() == {False: 8, True: 4}
     summary = pd.read_csv(out / "summary.csv")
     ratios = summary[summary.metric == "last_third_ratio"]
     assert sorted(zip(ratios.scenario, ratios.policy, strict=True)) == [
@@ -245,10 +245,18 @@ def test_compare_reports_the_zone_free_ratio_and_win_rates_by_zone_kind(tmp_path
         ("sensing-temp", "failure_aware"),
         ("sensing-temp", "vanilla"),
     ]
-    assert summary[summary.metric == "trace"]["n"].tolist() == [1, 1, 1, 1]  # no reference
+    assert summary[summary.metric == "trace"]["n"].tolist() == [2, 2, 2, 2]  # no reference
     rates = pd.read_csv(out / "win_rates.csv")
     assert sorted(set(rates.kind)) == ["all", "sensing zones only", "with a comm zone"]
-    assert set(rates.scenarios) == {1, 2}
+    assert set(rates.scenarios) == {1, 2} and set(rates.metric) == {"mse", "nll"}
+    assert (rates.wins + rates.ties + rates.losses == rates.scenarios).all()
     report = (out / "report.md").read_text()
-    assert "## Win rates by zone kind" in report and "zone-free reference runs of" in report
+    assert "## Scenarios won, tied and lost, by zone kind" in report
+    assert "zone-free reference runs of" in report
     assert report.count("| policy | last third ÷ zone-free | stragglers |") == 2
+
+
+def test_compare_by_zone_kind_needs_two_seeds(tmp_path, capsys):
+    argv = ["compare", "sensing-temp", "--seeds", "3-3", "--by-zone-kind"]
+    assert main([*argv, "--policies", "failure_aware,vanilla", "--out", str(tmp_path)]) == 1
+    assert "--by-zone-kind: needs at least two --seeds" in capsys.readouterr().err

@@ -20,11 +20,11 @@ from resilient_tracking.experiments.catalog import (
 from resilient_tracking.experiments.claims import check
 from resilient_tracking.experiments.generalization import (
     nozone_ratios,
+    outcomes,
+    outcomes_by_kind,
     section,
     straggler_share,
     wilson,
-    win_rate,
-    win_rates_by_kind,
     zone_kind,
 )
 from resilient_tracking.experiments.generator import (
@@ -193,7 +193,8 @@ def test_last_third_mean_is_over_the_final_third():
 
 
 def _summary():
-    """Three scenarios: failure-aware wins twice in trace, once in MSE."""
+    """Three scenarios, two seeds each alike: failure-aware wins twice in trace, once in MSE
+    (and NLL, equal to MSE here)."""
     rows = []
     for name, fa, va, nz, stray in [
         ("g00", (1.0, 1.0), (2.0, 0.5), 0.5, 0),
@@ -211,37 +212,52 @@ def _summary():
             {**base, "policy": "failure_aware", "tag_no_zones": True, "trace": nz, "mse": nz,
              "last_third_trace": nz, "sensing_end": 3, "stragglers": 3, "robots_attacked": 0},
         ]  # fmt: skip
-    return pd.DataFrame(rows)
+    frame = pd.DataFrame(rows)
+    frame = pd.concat([frame, frame.assign(seed=2)], ignore_index=True)
+    return frame.assign(nll=frame["mse"])
 
 
-def test_win_rates_ratios_and_straggler_share_on_a_tiny_table():
+def test_outcomes_ratios_and_straggler_share_on_a_tiny_table():
     s = _summary()
-    assert (win_rate(s, "trace").k, win_rate(s, "trace").n) == (2, 3)
-    assert (win_rate(s, "mse").k, win_rate(s, "mse").n) == (1, 3)
-    assert win_rate(s, "trace", against="sog").n == 0
+    trace, mse = outcomes(s, "trace"), outcomes(s, "mse")
+    assert (trace.wins, trace.ties, trace.losses) == (2, 0, 1)
+    assert (mse.wins, mse.ties, mse.losses) == (1, 0, 2)
+    assert outcomes(s, "trace", against="sog").n == 0
     ratios = nozone_ratios(s)
-    assert sorted(ratios.tolist()) == [1.0, 2.0, 4.0]
+    assert sorted(ratios.tolist()) == [1.0, 1.0, 2.0, 2.0, 4.0, 4.0]
     share = straggler_share(s)  # the zone-free runs' stragglers do not count
-    assert (share.k, share.n) == (1, 12)
+    assert (share.k, share.n) == (2, 24)
     text = section(s)
-    assert "2/3 = 67%" in text and "median 2.00×" in text
-    assert "| failure_aware, zones removed | 3 | 9 | 0/9 = 0%" in text
+    assert "| failure_aware vs vanilla | 1 won, 0 tied, 2 lost of 3 |" in text
+    assert "median 2.00×" in text
+    assert "| failure_aware, zones removed | 6 | 18 | 0/18 = 0%" in text
+
+
+def test_one_seed_decides_no_scenario():
+    s = _summary()
+    found = outcomes(s[s.seed == 1], "mse")
+    assert (found.n, found.short) == (0, 3)
 
 
 def test_targets_hold_or_fail_as_the_numbers_say():
     exp = catalog(quick=True)["generalization"]
     verdict = [c.holds for c in check(exp, _summary())]
-    assert verdict == [False, False, True]  # 67 % trace wins, 33 % MSE wins, 1/12 stragglers
+    assert verdict == [False, False, True]  # 2 of 3 lost in MSE and NLL; 2/24 stragglers
     winning = _summary()
-    winning.loc[winning.tag_scenario == "g02", "trace"] = [1.0, 2.0, 1.0]
-    winning.loc[winning.policy == "vanilla", "mse"] = 5.0
+    winning.loc[winning.policy == "vanilla", ["mse", "nll"]] = 5.0
     assert [c.holds for c in check(exp, winning)] == [True, True, True]
+    tied = winning.copy()  # one scenario lost in one seed, won in the other: a tie
+    lost = (tied.tag_scenario == "g00") & (tied.seed == 1) & (tied.policy == "failure_aware")
+    tied.loc[lost, "mse"] = 9.0
+    claims = check(exp, tied)
+    assert claims[0].holds and "0 tied" not in claims[0].evidence
     winning["stragglers"] = 2
     assert [c.holds for c in check(exp, winning)] == [True, True, False]
 
 
 def test_ratios_against_another_policys_zone_free_run():
     s = _summary()
+    s = s[s.seed == 1]
     ratios = nozone_ratios(s, "vanilla", reference="failure_aware")
     assert ratios.to_dict() == {("g00", 1): 4.0, ("g01", 1): 12.0, ("g02", 1): 0.5}
     assert nozone_ratios(s, "vanilla").empty  # vanilla has no zone-free runs of its own
@@ -254,35 +270,27 @@ def test_zone_kind_names_the_comm_zone_first():
     assert zone_kind([]) == "no zones"
 
 
-def test_win_rates_by_kind_compare_the_means_over_seeds_and_count_ties_as_losses():
+def test_outcomes_by_kind_decide_each_scenario_by_its_paired_interval():
     s = _summary()
-    # seed 2: g00 is lost by far, so its mean over both seeds (2.5 against 2.0) is a loss
-    extra = s[(s.tag_scenario == "g00") & (s.seed == 1)].assign(seed=2)
-    extra.loc[extra.policy == "failure_aware", "trace"] = 4.0
-    s = pd.concat([s, extra], ignore_index=True)
-    s.loc[(s.tag_scenario == "g02") & (s.policy == "vanilla"), "mse"] = 1.0  # a tie in MSE
+    # g00's second seed is lost by far: won in one seed, lost in the other, a tie
+    s.loc[(s.tag_scenario == "g00") & (s.seed == 2) & (s.policy == "failure_aware"), "trace"] = 4.0
     kinds = {"g00": "sensing zones only", "g01": "with a comm zone", "g02": "with a comm zone"}
-    trace = win_rates_by_kind(s, kinds, "trace")
-    assert {k: (p.k, p.n) for k, p in trace.items()} == {
-        "all": (1, 3),
-        "sensing zones only": (0, 1),
-        "with a comm zone": (1, 2),
+    trace = outcomes_by_kind(s, kinds, "trace")
+    assert {k: (o.wins, o.ties, o.losses) for k, o in trace.items()} == {
+        "all": (1, 1, 1),
+        "sensing zones only": (0, 1, 0),
+        "with a comm zone": (1, 0, 1),
     }
-    mse = win_rates_by_kind(s, kinds, "mse")
-    assert (mse["with a comm zone"].k, mse["sensing zones only"].k) == (0, 0)
-    assert str(trace["all"]) == str(wilson(1, 3))
-    none = win_rates_by_kind(s, kinds, "trace", against="sog")
-    assert list(none) == ["all"] and (none["all"].k, none["all"].n) == (0, 0)
+    none = outcomes_by_kind(s, kinds, "trace", against="sog")
+    assert all(o.n == 0 for o in none.values())
 
 
 def test_rows_without_the_zone_free_tag_are_zoned_runs():
     """A stored run written without ``tag_no_zones`` (blank in a CSV) counts as a run with zones:
-    win rates pair it with the other policy's run instead of dropping it."""
-    import pandas as pd
+    the outcomes pair it with the other policy's run instead of dropping it."""
+    from resilient_tracking.experiments.generalization import zone_free_rows
 
-    from resilient_tracking.experiments.generalization import win_rates_by_kind, zone_free_rows
-
-    summary = pd.DataFrame(
+    one = pd.DataFrame(
         {
             "tag_scenario": ["a", "a", "b", "b", "a"],
             "seed": [1, 1, 1, 1, 1],
@@ -291,8 +299,7 @@ def test_rows_without_the_zone_free_tag_are_zoned_runs():
             "trace": [1.0, 2.0, 3.0, 2.0, 0.5],
         }
     )
-    assert zone_free_rows(summary).tolist() == [False, False, False, False, True]
-    rates = win_rates_by_kind(
-        summary, {"a": "with a comm zone", "b": "sensing zones only"}, "trace"
-    )
-    assert (rates["all"].k, rates["all"].n) == (1, 2)
+    assert zone_free_rows(one).tolist() == [False, False, False, False, True]
+    summary = pd.concat([one, one.assign(seed=2)], ignore_index=True)
+    found = outcomes_by_kind(summary, {"a": "with a comm zone", "b": "sensing zones only"}, "trace")
+    assert (found["all"].wins, found["all"].losses) == (1, 1)

@@ -292,55 +292,56 @@ def test_adversarial_figures_are_bands_per_scenario_of_its_teams(tmp_path):
     }
 
 
-def test_adversarial_targets_fail_when_the_numbers_say_so():
+def test_adversarial_targets_are_won_tied_or_lost_by_the_paired_interval():
     exp = catalog()["adversarial"]
     teams = ["vanilla", "default", "adversarial", "guarded"] * 2
     rows = _summary(
         tag_scenario=["lure-comm"] * 8,
         tag_team=teams,
         seed=[1] * 4 + [2] * 4,
-        trace=[3.0, 2.0, 1.0, 2.2, 3.0, 2.0, 1.5, 2.2],  # extended lowest; guarded 1.1× paper
-        mse=[1.0, 2.0, 1.5, 1.5, 1.0, 2.0, 1.5, 1.5],  # below the paper's team, above vanilla
+        # adversarial below the default team in both seeds (won); against vanilla −1 then +1
+        mse=[2.0, 2.0, 1.0, 2.75, 1.0, 3.0, 2.0, 2.75],  # guarded 1.1× the default team's
+        nll=[1.0, 2.0, 1.5, 1.5, 1.0, 2.0, 1.5, 1.5],  # above vanilla in both seeds (lost)
         losses_known_permanent=[0] * 8,
         losses_unknown_permanent=[2, 2, 2, 1, 2, 2, 2, 0],  # guarded: 0.5 vs 2 per run
     )
-    holds = {c.statement: c.holds for c in check(exp, rows)}
-    assert holds == {
-        "lure-comm: the adversarial team has a lower mean trace than the default team": True,
-        "lure-comm: the adversarial team has a lower mean mse than the default team": True,
-        "lure-comm: the adversarial team has a lower mean trace than vanilla": True,
-        "lure-comm: the adversarial team has a lower mean mse than vanilla": False,
+    claims = check(exp, rows)
+    verdict = {c.statement: ("tie" if c.tie else c.holds) for c in claims}
+    assert verdict == {
+        "lure-comm: the adversarial team has a lower MSE than the default team": True,
+        "lure-comm: the adversarial team has a lower NLL than the default team": True,
+        "lure-comm: the adversarial team has a lower MSE than vanilla": "tie",
+        "lure-comm: the adversarial team has a lower NLL than vanilla": False,
         "lure-comm: with the lure guard, permanent losses per run at most 50% of the default "
-        "team's, at a trace at most 1.2× its": True,
+        "team's, at an MSE at most 1.2× its": True,
     }
-    evidence = [c.evidence for c in check(exp, rows)]
-    assert "difference 95 % CI [" in evidence[0] and "lower in 2/2 seeds" in evidence[0]
+    assert claims[0].evidence.startswith("win: ") and "lower in 2/2 seeds" in claims[0].evidence
 
 
-def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_wins():
+def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_loses():
     exp = catalog()["adversarial"]
     teams = ["vanilla", "default", "adversarial"]
-    # g00: extended below both; g01: equal to the paper's team, below vanilla
+    # g00: extended below both in both seeds; g01: above the default team in both, below vanilla
     rows = _summary(
-        tag_scenario=["g00"] * 3 + ["g01"] * 3,
-        tag_part=["suite"] * 6,
-        tag_team=teams * 2,
-        seed=[1] * 6,
-        trace=[3.0, 2.0, 1.0, 3.0, 1.0, 1.0],
-        mse=[1.0, 2.0, 0.5, 1.0, 2.0, 0.5],  # extended lowest in both
-        losses_known_permanent=[0] * 6,
-        losses_unknown_permanent=[0] * 6,
+        tag_scenario=["g00"] * 6 + ["g01"] * 6,
+        tag_part=["suite"] * 12,
+        tag_team=teams * 4,
+        seed=[1, 1, 1, 2, 2, 2] * 2,
+        mse=[3.0, 2.0, 1.0] * 2 + [3.0, 1.0, 2.0] * 2,
+        nll=[1.0, 2.0, 0.5] * 4,  # extended lowest in both
+        losses_known_permanent=[0] * 12,
+        losses_unknown_permanent=[0] * 12,
     )
     holds = {c.statement: c.holds for c in check(exp, rows)}
     assert holds == {
-        "adversarial suite: the adversarial team has a lower mean trace than the default team in "
-        "at least 85% of the scenarios": False,  # 1 of 2
-        "adversarial suite: the adversarial team has a lower mean trace than vanilla in at least "
-        "85% of the scenarios": True,  # 2 of 2
-        "adversarial suite: the adversarial team has a lower mean mse than the default team in "
-        "at least 85% of the scenarios": True,
-        "adversarial suite: the adversarial team has a lower mean mse than vanilla in at least "
-        "85% of the scenarios": True,
+        "adversarial suite: the adversarial team loses to the default team in MSE in at most "
+        "15% of the scenarios (ties apart)": False,  # 1 of 2
+        "adversarial suite: the adversarial team loses to the default team in NLL in at most "
+        "15% of the scenarios (ties apart)": True,
+        "adversarial suite: the adversarial team loses to vanilla in MSE in at most 15% of the "
+        "scenarios (ties apart)": True,
+        "adversarial suite: the adversarial team loses to vanilla in NLL in at most 15% of the "
+        "scenarios (ties apart)": True,
     }
 
 

@@ -142,7 +142,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
             overrides.insert(0, ("team", args.team))
         policies = [p.strip() for p in args.policies.split(",") if p.strip()]
         study = make_study(
-            args.scenario, policies, seeds, overrides, args.zone_free, args.by_zone_kind
+            args.scenario,
+            policies,
+            seeds,
+            overrides,
+            args.zone_free,
+            args.by_zone_kind,
+            bound=args.bound,
         )
         tasks = study.tasks()
     except (ScenarioError, ValueError) as err:

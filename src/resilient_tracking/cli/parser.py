@@ -112,6 +112,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(repeatable; applied after --team)",
     )
     p.add_argument("--steps", type=int, default=None, help="override the number of steps")
+    p.add_argument(
+        "--bound",
+        action="store_true",
+        help="also compute the posterior Cramér–Rao bound of the target positions along the run "
+        "(team table column bound) and report efficiency = bound / MSE (docs/model.md §8)",
+    )
     p.add_argument("--no-figures", action="store_true")
     p.add_argument(
         "--overwrite",
@@ -140,8 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
         "compare",
         help="compare policies over seeds on scenarios, resumable, and write report.md",
         description="Run every policy on every scenario for each seed (stored runs are reused), "
-        "then write OUT/report.md: mean and 95%% confidence interval per metric, paired win "
-        "counts, bands, box plots and snapshots (docs/compare.md).",
+        "then write OUT/report.md: mean and 95%% confidence interval per metric (MSE and NLL "
+        "first), paired win counts, bands, box plots and snapshots (docs/compare.md).",
     )
     p.add_argument("scenario", nargs="+", help="scenario files or shipped scenario names")
     p.add_argument(
@@ -176,9 +182,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--by-zone-kind",
         action="store_true",
-        help="report the first policy's win rates against each other one over the scenarios, "
-        "split by whether a scenario has a comm zone, with Wilson 95%% intervals",
+        help="report the first policy's scenarios won, tied and lost against each other one "
+        "in MSE and NLL, split by whether a scenario has a comm zone (needs two or more seeds)",
     )
+    p.add_argument(
+        "--bound",
+        action="store_true",
+        help="also compute the posterior Cramér–Rao bound of the target positions along each run "
+        "(team table column bound) and report efficiency = bound / MSE (docs/model.md §8)",
+    )
+
     add_team_option(p, "every scenario")
     p.add_argument("--out", default="comparison", help="output folder (default: comparison)")
     _add_sweep_options(p)

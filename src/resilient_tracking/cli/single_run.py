@@ -90,6 +90,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _run_into(
     args: argparse.Namespace, scenario: Scenario, policy: str, seed: int, out: Path
 ) -> int:
+    from resilient_tracking.experiments.summary import scores_line
+    from resilient_tracking.runs.reading import run_data
     from resilient_tracking.runs.records import write_run
     from resilient_tracking.sim.episode import run_episode
     from resilient_tracking.viz import make_run_figures
@@ -108,7 +110,11 @@ def _run_into(
             disable=args.quiet,
         ) as bar:
             result = run_episode(
-                scenario, policy=policy, seed=seed, progress=lambda n: advance(bar, n)
+                scenario,
+                policy=policy,
+                seed=seed,
+                progress=lambda n: advance(bar, n),
+                bound=args.bound,
             )
         write_run(result, out, finish=finish, overwrite=args.overwrite)
     except Exception as err:  # report, never a traceback; nothing is left half-written
@@ -126,9 +132,8 @@ def _run_into(
     events = result["events"]
     attacks = int((events["event"] == "attack").sum()) if len(events) else 0
     print(
-        f"wrote {shown(out)}: {len(team)} steps, mean trace {team['trace'].mean():.3g}, "
-        f"mean MSE {team['mse'].mean():.3g}, {attacks} attacks, "
-        f"{len(figures)} figures, {result.manifest['wall_time_s']:.2f} s"
+        f"wrote {shown(out)}: {len(team)} steps, {scores_line(run_data(result))}, "
+        f"{attacks} attacks, {len(figures)} figures, {result.manifest['wall_time_s']:.2f} s"
     )
     invalid = events[events["event"] == "invalid_decision"] if len(events) else events
     if len(invalid):

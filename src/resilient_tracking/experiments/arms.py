@@ -72,12 +72,14 @@ class Experiment:
 
 @dataclass(frozen=True)
 class Task:
-    """One run of a sweep: a fully validated scenario, a policy and a seed."""
+    """One run of a sweep: a fully validated scenario, a policy and a seed; ``bound``: the run
+    also computes the posterior Cramér–Rao bound."""
 
     experiment: str
     variant: Variant
     seed: int
     scenario: Scenario
+    bound: bool = False
 
     @property
     def run_id(self) -> str:
@@ -89,14 +91,16 @@ class Task:
     @property
     def fingerprint(self) -> str:
         """Hash of everything that determines the run's tables: the scenario, the policy, the
-        seed and the package's code (:func:`~resilient_tracking.runs.manifest.code_digest`); a
-        stored run with another fingerprint is stale and is run again. The free-text
+        seed, whether the bound is computed, and the package's code
+        (:func:`~resilient_tracking.runs.manifest.code_digest`); a stored run with another
+        fingerprint is stale and is run again. The free-text
         ``description`` is left out: rewording it changes no result."""
         text = json.dumps(
             [
                 self.scenario.model_dump(mode="json", exclude={"description"}),
                 self.variant.policy,
                 self.seed,
+                *(["bound"] if self.bound else []),
                 code_digest(),
             ],
             sort_keys=True,

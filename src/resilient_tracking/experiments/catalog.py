@@ -28,6 +28,7 @@ from resilient_tracking.experiments.generator import (
     stored_suite,
 )
 from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario.effects import SensingDegrade
 from resilient_tracking.scenario.overrides import apply_overrides
 from resilient_tracking.scenario.teams import get_team
 
@@ -102,6 +103,9 @@ def _scale_variants(robots: Iterable[int], targets: Iterable[int]) -> tuple[Vari
     )
 
 
+#: Seeds of each generated scenario: at least two, so that each scenario's comparison has an
+#: interval of its per-seed differences (a win, a tie or a loss).
+GENERALIZATION_SEEDS = 2
 #: The generated suite's size, and the quick (CI) run: its first few small-team scenarios.
 SUITE_SIZE = 60
 QUICK_SUITE = 4
@@ -156,7 +160,7 @@ ADVERSARIAL = ("evasive-open", "evasive-zones", "lure-sensing", "lure-comm")
 #: Scenarios of the stored adversarial suite in the ``adversarial`` experiment, and the seeds of
 #: each (its first ones).
 ADVERSARIAL_SUITE_SIZE = 30
-ADVERSARIAL_SUITE_SEEDS = 1
+ADVERSARIAL_SUITE_SEEDS = 2
 
 
 def adversarial_cases(
@@ -178,7 +182,7 @@ def adversarial_cases(
     cases = _with_three_teams(shipped, generated, "adversarial", suite_seeds)
     # where a shipped scenario's targets lure, a fourth arm: the team with the lure guard
     return [
-        (s, arms + (_arm(s.name, "guarded", "shipped"),))
+        (s, arms + (_arm(s, "guarded", "shipped"),))
         if arms[0].tags["part"] == "shipped" and _lures(s)
         else (s, arms)
         for s, arms in cases
@@ -203,25 +207,27 @@ BEYOND = (
 BEYOND_SUITE_SEEDS = 2
 
 
+def degrades_sensing(scenario: Scenario) -> bool:
+    """Whether a zone of ``scenario`` degrades sensors rather than destroying them."""
+    return any(isinstance(getattr(z, "effect", None), SensingDegrade) for z in scenario.zones)
+
+
 def _three_teams(
-    name: str, extended: str, part: str, max_seeds: int | None = None
+    scenario: Scenario, extended: str, part: str, max_seeds: int | None = None
 ) -> tuple[Variant, ...]:
-    """The teams ``vanilla``, ``default`` and ``extended`` on scenario ``name``, labelled
-    ``<name>-<team>`` and tagged with the scenario, the team and ``part``."""
-    return tuple(_arm(name, team, part, max_seeds) for team in ("vanilla", "default", extended))
+    """The teams ``vanilla``, ``default`` and ``extended`` on ``scenario``, labelled
+    ``<name>-<team>`` and tagged with the scenario, the team, ``part`` and whether a zone
+    degrades sensors (``degrades``)."""
+    return tuple(_arm(scenario, team, part, max_seeds) for team in ("vanilla", "default", extended))
 
 
-def _arm(name: str, team: str, part: str, max_seeds: int | None = None) -> Variant:
-    """The arm of ``team`` on scenario ``name``, labelled ``<name>-<team>`` and tagged with the
-    scenario, the team and ``part``."""
+def _arm(scenario: Scenario, team: str, part: str, max_seeds: int | None = None) -> Variant:
+    """The arm of ``team`` on ``scenario``, labelled ``<name>-<team>`` and tagged with the
+    scenario, the team, ``part`` and whether a zone degrades sensors."""
+    name = scenario.name
     arm = team_arm(team, f"{name}-{team}")
-    return Variant(
-        arm.label,
-        arm.policy,
-        dict(arm.overrides),
-        tags={"scenario": name, "team": team, "part": part},
-        max_seeds=max_seeds,
-    )
+    tags = {"scenario": name, "team": team, "part": part, "degrades": degrades_sensing(scenario)}
+    return Variant(arm.label, arm.policy, dict(arm.overrides), tags=tags, max_seeds=max_seeds)
 
 
 def beyond_cases(
@@ -263,8 +269,8 @@ def _with_three_teams(
 ) -> list[tuple[Scenario, tuple[Variant, ...]]]:
     """Each shipped scenario (``part: shipped``) and each generated one (``part: suite``, on its
     first ``suite_seeds`` seeds) with the three teams of :func:`_three_teams`."""
-    return [(s, _three_teams(s.name, extended, "shipped")) for s in shipped] + [
-        (s, _three_teams(s.name, extended, "suite", suite_seeds)) for s in generated
+    return [(s, _three_teams(s, extended, "shipped")) for s in shipped] + [
+        (s, _three_teams(s, extended, "suite", suite_seeds)) for s in generated
     ]
 
 
@@ -337,13 +343,14 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             "generalization",
             "",
             variants=(),
-            seeds=1,
+            seeds=GENERALIZATION_SEEDS,
             kind="generalization",
             description=(
                 f"{QUICK_SUITE if quick else SUITE_SIZE} generated scenarios "
                 f"{'with small teams ' if quick else ''}(docs/generalization.md): "
                 "failure-aware vs vanilla, SOG where every zone is a sensing zone, and "
-                "failure-aware without zones for the no-zone ratio"
+                f"failure-aware without zones for the no-zone ratio ({GENERALIZATION_SEEDS} seeds "
+                "each)"
             ),
             generated=partial(generalization_cases, QUICK_SUITE, QUICK_MAX_PAIRS)
             if quick
@@ -380,9 +387,9 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
                 + ", ".join(f"`{n}`" for n in BEYOND)
                 + f", and on {QUICK_SUITE if quick else SUITE_SIZE} scenarios of the stored "
                 f"beyond suite{' with small teams' if quick else ''} "
-                f"({1 if quick else BEYOND_SUITE_SEEDS} seed(s) each)"
+                f"({BEYOND_SUITE_SEEDS} seeds each)"
             ),
-            generated=partial(beyond_cases, BEYOND, QUICK_SUITE, QUICK_MAX_PAIRS, 1)
+            generated=partial(beyond_cases, BEYOND, QUICK_SUITE, QUICK_MAX_PAIRS, 2)
             if quick
             else beyond_cases,
         ),

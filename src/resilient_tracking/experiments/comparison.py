@@ -4,15 +4,21 @@ The runs are stored like those of ``rtrack reproduce`` (``OUT/runs/<scenario>/<p
 seed-NNN/``, resumable, a stale run is run again), then summarised in ``OUT/report.md``:
 
 - per scenario and policy, the mean of each time-averaged metric over seeds with its 95 %
-  confidence interval (Student's t on the seed means: ``mean ± t₀.₉₇₅,ₙ₋₁ · s/√n``);
-- paired win counts: runs of different policies with the same seed meet the same zone draws
-  (common random numbers), so seed by seed one policy either did better or did not;
+  confidence interval (Student's t on the seed means: ``mean ± t₀.₉₇₅,ₙ₋₁ · s/√n``), led by
+  MSE and NLL, which judge the estimate against truth (the policies' filters may differ, and
+  the covariance trace rewards a filter for being sure rather than right), then ANEES (2 for
+  a consistent filter) and the paper's trace;
+- paired win counts in MSE and NLL: runs of different policies with the same seed meet the
+  same zone draws (common random numbers), so seed by seed one policy either did better or
+  did not;
 - mean ± 1 std bands over time, box plots over seeds and trajectory snapshots;
 - with a zone-free reference (``--zone-free``), each scenario is also run with its zones removed
   (same seeds) and each policy's last-third ratio reported: mean trace over the final third of
   the episode ÷ the zone-free run's, how far the team comes back after the zones struck;
-- with ``--by-zone-kind``, the first policy's win rates against each other one over the
-  scenarios, split by whether a scenario has a comm zone, with Wilson intervals.
+- with ``--by-zone-kind`` (at least two seeds), the first policy's scenarios won, tied and lost
+  against each other one in MSE and NLL, split by whether a scenario has a comm zone: a
+  scenario is won when the 95 % interval of its per-seed differences lies below zero, lost
+  when above, tied when it spans zero.
 
 Seeds are ``N`` (1..N), a range ``A-B`` or a list ``a,b,c``. The report's numbers come from
 :mod:`.comparison_stats`, its tables from :mod:`.comparison_tables`.
@@ -35,16 +41,19 @@ from resilient_tracking.experiments.comparison_stats import (
     summary_table,
 )
 from resilient_tracking.experiments.comparison_tables import (
+    bound_markdown,
     summary_markdown,
     wins_markdown,
     zone_free_markdown,
     zone_kinds_markdown,
 )
 from resilient_tracking.experiments.generalization import (
-    win_rates_by_kind,
+    outcomes_by_kind,
+    wilson,
     zone_free_rows,
     zone_kind,
 )
+from resilient_tracking.experiments.paired import HEADLINE
 from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
@@ -77,6 +86,8 @@ class Study:
     overrides: tuple[tuple[str, object], ...] = ()
     zone_free: str | None = None
     by_zone_kind: bool = False
+    #: whether each run also computes the posterior Cramér–Rao bound
+    bound: bool = False
 
     def tasks(self) -> list[Task]:
         """Every run, validated: one per (scenario, policy, seed), then one per (scenario,
@@ -99,7 +110,10 @@ class Study:
         return out
 
     def _seeded(self, label: str, variant: Variant, base: Scenario) -> list[Task]:
-        return [Task(label, variant, seed, base.with_overrides(seed=seed)) for seed in self.seeds]
+        return [
+            Task(label, variant, seed, base.with_overrides(seed=seed), bound=self.bound)
+            for seed in self.seeds
+        ]
 
     def zone_kinds(self) -> dict[str, str]:
         """Each scenario's kind by label (:func:`~.generalization.zone_kind`)."""
@@ -163,6 +177,7 @@ def make_study(
     overrides: Sequence[tuple[str, object]] = (),
     zone_free: str | None = None,
     by_zone_kind: bool = False,
+    bound: bool = False,
 ) -> Study:
     """Load and validate everything before anything runs (``ScenarioError`` / ``ValueError``);
     ``seeds`` is a count ``N`` (seeds 1..N) or the seeds themselves."""
@@ -172,6 +187,11 @@ def make_study(
         raise ValueError(f"--policies: none given; choose from {', '.join(POLICIES.names())}")
     if by_zone_kind and len(set(policies)) < 2:
         raise ValueError("--by-zone-kind: needs at least two --policies to compare")
+    if by_zone_kind and (seeds if isinstance(seeds, int) else len(set(seeds))) < 2:
+        raise ValueError(
+            "--by-zone-kind: needs at least two --seeds (a scenario is won, tied or lost by "
+            "the interval of its per-seed differences)"
+        )
     named = [("--policies", name) for name in policies]
     if zone_free is not None:
         named.append(("--zone-free", zone_free))
@@ -196,6 +216,7 @@ def make_study(
         tuple(overrides),
         zone_free=zone_free,
         by_zone_kind=by_zone_kind,
+        bound=bound,
     )
 
 
@@ -203,28 +224,32 @@ def make_study(
 
 
 def zone_kind_win_rates(runs: pd.DataFrame, study: Study) -> pd.DataFrame:
-    """The first policy's win rates against each other one (lower mean over seeds, scenario
-    by scenario), over all scenarios and per zone kind, with Wilson 95 % intervals."""
+    """The first policy's scenarios won, tied and lost against each other one, in MSE and NLL
+    (paired by seed, :func:`~.paired.paired_outcome`), over all scenarios and per zone kind,
+    with the Wilson 95 % interval of the share won."""
     first, kinds = study.policies[0], study.zone_kinds()
     rows = []
     for against in study.policies[1:]:
-        for metric in ("trace", "mse"):
-            rates = win_rates_by_kind(runs, kinds, metric, against, first)
-            rows += [
-                {
-                    "policy": first,
-                    "against": against,
-                    "kind": kind,
-                    "metric": metric,
-                    "wins": p.k,
-                    "scenarios": p.n,
-                    "rate": p.rate,
-                    "ci95_low": p.low,
-                    "ci95_high": p.high,
-                    "text": str(p),
-                }
-                for kind, p in rates.items()
-            ]
+        for metric in HEADLINE:
+            found = outcomes_by_kind(runs, kinds, metric, against, first)
+            for kind, o in found.items():
+                won = wilson(o.wins, o.n)
+                rows.append(
+                    {
+                        "policy": first,
+                        "against": against,
+                        "kind": kind,
+                        "metric": metric,
+                        "wins": o.wins,
+                        "ties": o.ties,
+                        "losses": o.losses,
+                        "scenarios": o.n,
+                        "rate": won.rate,
+                        "ci95_low": won.low,
+                        "ci95_high": won.high,
+                        "text": str(o),
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -254,12 +279,12 @@ def scenario_section(
     figures = out / label / "figures"
     drawn = [
         (
-            "MSE, trace and effort over time: mean ± 1 std over seeds",
+            "MSE, NLL, trace and effort over time: mean ± 1 std over seeds",
             plot_bands(by_policy, figures / "bands.png", (*BAND_METRICS, *EFFORT_METRIC), label),
         ),
         (
             "time-averaged metrics, one point per seed",
-            plot_policy_boxes(zoned, figures / "boxes.png", ("trace", "mse", "effort")),
+            plot_policy_boxes(zoned, figures / "boxes.png", ("mse", "nll", "trace", "effort")),
         ),
     ]
     for policy, rs in by_policy.items():
@@ -279,6 +304,8 @@ def scenario_section(
         "**Paired wins** (same seed, so the same zone draws):",
         wins_markdown(zoned),
     ]
+    if zoned["bound"].notna().any():
+        parts.append(bound_markdown(zoned))
     if reference is not None:
         parts.append(zone_free_markdown(runs, reference))
     parts += [f"![{caption}]({path.relative_to(out).as_posix()})" for caption, path in drawn]

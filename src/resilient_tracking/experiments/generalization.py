@@ -15,6 +15,8 @@ import numpy as np
 import pandas as pd
 from scipy.stats import binomtest
 
+from resilient_tracking.experiments.paired import HEADLINE, Outcomes, scenario_outcomes
+
 POLICIES = ("failure_aware", "vanilla", "sog")
 
 
@@ -59,22 +61,12 @@ def _with_zones(summary: pd.DataFrame) -> pd.DataFrame:
     return summary[~zone_free_rows(summary)]
 
 
-def paired(summary: pd.DataFrame, metric: str, policies: tuple[str, str]) -> pd.DataFrame:
-    """``metric`` of two policies side by side, one row per (scenario, seed) that ran both."""
-    rows = _with_zones(summary)
-    wide = rows.pivot_table(index=["tag_scenario", "seed"], columns="policy", values=metric)
-    missing = [p for p in policies if p not in wide]
-    return wide.iloc[:0, :0] if missing else wide[list(policies)].dropna()
-
-
-def win_rate(
+def outcomes(
     summary: pd.DataFrame, metric: str, against: str = "vanilla", policy: str = "failure_aware"
-) -> Proportion:
-    """Share of scenarios in which ``policy`` has the lower mean ``metric`` than ``against``."""
-    wide = paired(summary, metric, (policy, against))
-    if wide.empty:
-        return wilson(0, 0)
-    return wilson(int((wide[policy] < wide[against]).sum()), len(wide))
+) -> Outcomes:
+    """Scenarios in which ``policy`` wins, ties or loses against ``against`` on ``metric``,
+    paired by seed (:func:`~.paired.scenario_outcomes`; zone-free runs left out)."""
+    return scenario_outcomes(_with_zones(summary), metric, policy, against, arm="policy")[0]
 
 
 def nozone_ratios(
@@ -104,25 +96,22 @@ def zone_kind(kinds: Iterable[str]) -> str:
     return "sensing zones only" if kinds else "no zones"
 
 
-def win_rates_by_kind(
+def outcomes_by_kind(
     summary: pd.DataFrame,
     kind_of: Mapping[str, str],
     metric: str,
     against: str = "vanilla",
     policy: str = "failure_aware",
-) -> dict[str, Proportion]:
-    """Share of scenarios in which ``policy`` has the lower ``metric``, averaged over the seeds
-    both ran, than ``against``: over all scenarios (``"all"``) and per kind (``kind_of`` maps a
+) -> dict[str, Outcomes]:
+    """:func:`outcomes` over all scenarios (``"all"``) and per kind (``kind_of`` maps a
     scenario's ``tag_scenario`` to its kind)."""
-    wide = paired(summary, metric, (policy, against))
-    if wide.empty:
-        return {"all": wilson(0, 0)}
-    means = wide.groupby(level="tag_scenario").mean()
-    won = means[policy] < means[against]
-    kinds = pd.Series([kind_of[str(name)] for name in won.index], index=won.index)
-    out = {"all": wilson(int(won.sum()), len(won))}
+    rows = _with_zones(summary)
+    out = {"all": outcomes(rows, metric, against, policy)}
+    if not len(rows):
+        return out
+    kinds = rows["tag_scenario"].map(lambda name: kind_of[str(name)])
     for kind in sorted(set(kinds)):
-        out[kind] = wilson(int(won[kinds == kind].sum()), int((kinds == kind).sum()))
+        out[kind] = outcomes(rows[kinds == kind], metric, against, policy)
     return out
 
 
@@ -151,11 +140,14 @@ def _quantiles(values: pd.Series) -> str:
 
 def section(summary: pd.DataFrame) -> str:
     """The benchmark's tables in markdown."""
-    lines = ["| comparison | lower mean trace | lower mean MSE |", "|---|---|---|"]
+    lines = [
+        "| comparison | MSE | NLL | trace (the paper's measure) |",
+        "|---|---|---|---|",
+    ]
     for other in ("vanilla", "sog"):
-        trace, mse = win_rate(summary, "trace", other), win_rate(summary, "mse", other)
-        if trace.n:
-            lines.append(f"| failure_aware vs {other} | {trace} | {mse} |")
+        found = [outcomes(summary, metric, other) for metric in (*HEADLINE, "trace")]
+        if found[0].n:
+            lines.append(f"| failure_aware vs {other} | " + " | ".join(map(str, found)) + " |")
     ratios = {policy: nozone_ratios(summary, policy) for policy in POLICIES}
     ratio_lines = [f"- {p}: {_quantiles(r)}" for p, r in ratios.items() if not r.empty] or [
         "- no zone-free runs"
@@ -183,7 +175,9 @@ def section(summary: pd.DataFrame) -> str:
         )
     return "\n\n".join(
         [
-            "**Win rates** (share of scenarios, Wilson 95 % interval)\n\n" + "\n".join(lines),
+            "**Scenarios won, tied and lost** (per scenario, by the 95 % interval of the "
+            "per-seed differences: below zero a win, above a loss, spanning zero a tie)\n\n"
+            + "\n".join(lines),
             "**Last-third trace ÷ the zone-free run's** (same policy and seed)\n\n"
             + "\n".join(ratio_lines),
             "**Robots lost and stragglers** (shares of robots; stragglers among those that can "

@@ -96,6 +96,25 @@ def bound_summary(run: RunData) -> dict[str, Any]:
     }
 
 
+def scores_line(run: RunData) -> str:
+    """One line of a run's scores for people: mean MSE, mean NLL, ANEES and its band, the
+    bound's efficiency when computed, and the paper's mean trace."""
+    team = run.team
+    n_targets = int(run.targets["target"].nunique())
+    c = consistency(team, n_targets)
+    inside = "inside" if c["anees_in_band"] else "outside"
+    line = (
+        f"mean MSE {team['mse'].mean():.3g}, mean NLL {team['nll'].mean():.3g}, "
+        f"ANEES {c['anees']:.3g} ({inside} its 95 % band [{c['anees_low']:.3g}, "
+        f"{c['anees_high']:.3g}])"
+    )
+    b = bound_summary(run)
+    if np.isfinite(b["bound"]):
+        kind = "" if b["bound_exact"] else ", indicative: scripted targets"
+        line += f", bound {b['bound']:.3g} (efficiency {b['efficiency']:.2f}{kind})"
+    return line + f", mean trace {team['trace'].mean():.3g}"
+
+
 def summarise_run(run: RunData) -> dict[str, Any]:
     """The summary row of one run: its experiment, variant, policy, seed and tags, team size, and
     metrics (mean MSE, NLL, ANEES with its band, the bound when computed, mean and final trace,

@@ -99,7 +99,9 @@ def run_task(task: Task) -> tuple[str, EpisodeResult | RunFailure]:
     the policy, never as the exception, so one failed run stops neither the others nor the
     worker pool."""
     try:
-        result = run_episode(task.scenario, policy=task.variant.policy, seed=task.seed)
+        result = run_episode(
+            task.scenario, policy=task.variant.policy, seed=task.seed, bound=task.bound
+        )
     except Exception as err:
         interrupts.check()  # Ctrl-C swallowed by a library stays an interrupt
         message = f"{task.run_id}: policy {task.variant.policy}: {type(err).__name__}: {err}"

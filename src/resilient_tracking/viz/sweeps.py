@@ -22,7 +22,7 @@ from resilient_tracking.viz.trajectories import plot_trajectory_map
 log = logging.getLogger(__name__)
 
 #: Curves of the band figures: team-table column, axis label.
-BAND_METRICS = (("mse", "MSE [m²]"), ("trace", "Σ tr P [m²]"))
+BAND_METRICS = (("mse", "MSE [m²]"), ("nll", "NLL [nats]"), ("trace", "Σ tr P [m²]"))
 EFFORT_METRIC = (("effort", "effort Σ‖u‖ [m/s]"),)
 #: Resolution of sweep figures: reports hold dozens of them, so lighter than a run's figures.
 SWEEP_DPI = 100
