@@ -57,7 +57,7 @@ def recorded() -> dict[str, pd.DataFrame]:
     data = shipped("combined-perm").with_overrides(steps=120).model_dump(mode="json")
     # a zone that moves, so that the zone_tracks table has rows too
     data["zones"][0]["motion"] = {"type": "constant_velocity", "velocity": [0.01, 0.0]}
-    return run_episode(parse_scenario(data), seed=7).tables
+    return run_episode(parse_scenario(data), seed=7, bound=True).tables
 
 
 def test_an_episode_records_every_declared_column_with_its_dtype(recorded):

@@ -116,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--bound",
         action="store_true",
         help="also compute the posterior Cramér–Rao bound of the target positions along the run "
-        "(team table column bound) and report efficiency = bound / MSE (docs/model.md §8)",
+        "(table bound.parquet) and report efficiency = bound / MSE (docs/model.md §8)",
     )
     p.add_argument("--no-figures", action="store_true")
     p.add_argument(
@@ -189,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--bound",
         action="store_true",
         help="also compute the posterior Cramér–Rao bound of the target positions along each run "
-        "(team table column bound) and report efficiency = bound / MSE (docs/model.md §8)",
+        "(table bound.parquet) and report efficiency = bound / MSE (docs/model.md §8)",
     )
 
     add_team_option(p, "every scenario")

@@ -84,14 +84,12 @@ def bound_exact(run: RunData) -> bool:
 def bound_summary(run: RunData) -> dict[str, Any]:
     """The run's mean bound, its efficiency (mean bound ÷ mean MSE: 1 for an estimator that
     meets the bound), and whether the bound is exact; NaN when the run has no bound."""
-    team = run.team
-    values = team["bound"] if "bound" in team else pd.Series(dtype=float)
-    if values.isna().all():
+    if not len(run.bound):
         return {"bound": float("nan"), "efficiency": float("nan"), "bound_exact": False}
-    bound = float(values.mean())
+    bound = float(run.bound["bound"].astype(float).mean())
     return {
         "bound": bound,
-        "efficiency": bound / float(team["mse"].mean()),
+        "efficiency": bound / float(run.team["mse"].mean()),
         "bound_exact": bound_exact(run),
     }
 

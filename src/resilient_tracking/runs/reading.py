@@ -39,6 +39,8 @@ class RunData:
     knowledge: pd.DataFrame
     #: where each moving zone was at each step (empty when no zone moves)
     zone_tracks: pd.DataFrame = field(default_factory=pd.DataFrame)
+    #: the posterior Cramér–Rao bound per step (empty unless the run computed it)
+    bound: pd.DataFrame = field(default_factory=pd.DataFrame)
     manifest: dict[str, Any] = field(default_factory=dict)
 
     @property

@@ -125,13 +125,6 @@ TEAM = Table(
             "(1/N) Σ_j (ŷ_j − y_j)ᵀ P_j⁻¹ (ŷ_j − y_j), position NEES (2 when consistent)",
             "truth",
         ),
-        _c(
-            "bound",
-            "float64",
-            "m²",
-            "(1/N) Σ_j tr of the posterior Cramér–Rao bound of the position; NaN unless asked",
-            "truth",
-        ),
         _c("trace", "float64", "m²", "Σ_j tr P_j of the team estimate's position blocks"),
         _c("effort", "float64", "m/s", "Σ_i ‖u_i‖ of the applied velocities"),
         _c("n_sensing_failed", "int64", "", "robots whose sensor is down"),
@@ -277,6 +270,24 @@ ZONE_TRACKS = Table(
     note="truth, for plots only, never seen by robots; empty when no zone moves",
 )
 
+BOUND = Table(
+    "bound",
+    "one per step, when the bound is asked for",
+    (
+        _c("step", "int64", "", "time step", "truth"),
+        _c(
+            "bound",
+            "float64",
+            "m²",
+            "(1/N) Σ_j tr of the posterior Cramér–Rao bound of target j's position",
+            "truth",
+        ),
+    ),
+    keys=(),
+    optional=True,
+    note="truth, never seen by robots; empty unless asked for (rtrack run --bound)",
+)
+
 KNOWLEDGE = Table(
     "knowledge",
     "one per zone estimate learned",
@@ -298,7 +309,7 @@ KNOWLEDGE = Table(
 
 #: Every table of a run folder, by name, in the order they are written.
 TABLES: dict[str, Table] = {
-    t.name: t for t in (TEAM, ROBOTS, TARGETS, EVENTS, ZONES, ZONE_TRACKS, KNOWLEDGE, TIMING)
+    t.name: t for t in (TEAM, ROBOTS, TARGETS, EVENTS, ZONES, ZONE_TRACKS, KNOWLEDGE, BOUND, TIMING)
 }
 #: Tables that are identical, bit for bit, for the same scenario and seed.
 REPRODUCIBLE: tuple[str, ...] = tuple(n for n, t in TABLES.items() if t.reproducible)

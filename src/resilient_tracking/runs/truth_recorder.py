@@ -17,7 +17,7 @@ import pandas as pd
 from resilient_tracking.events import Event
 from resilient_tracking.runs.metrics import mse, step_scores
 from resilient_tracking.runs.records import ColumnTable
-from resilient_tracking.runs.schema import EVENTS, TARGETS, TEAM, ZONE_TRACKS, ZONES
+from resilient_tracking.runs.schema import BOUND, EVENTS, TARGETS, TEAM, ZONE_TRACKS, ZONES
 
 
 class ZoneSpecTruth(Protocol):
@@ -110,6 +110,7 @@ class TruthRecorder:
         self.targets = ColumnTable(TARGETS.numpy_dtypes("truth"), steps * n_targets)
         self.zones = zone_table(zones)
         self.events = ColumnTable(EVENTS.numpy_dtypes())
+        self.bound = ColumnTable(BOUND.numpy_dtypes())
         self._zones = zones
 
     def step(
@@ -118,13 +119,15 @@ class TruthRecorder:
         truth: np.ndarray,
         estimate: np.ndarray,
         cov: np.ndarray,
-        bound: float = float("nan"),
+        bound: float | None = None,
     ) -> None:
         """Record step ``step``: true positions ``truth`` (N, 2), the team's estimated positions
         ``estimate`` (N, 2) of the same step with their covariances ``cov`` (N, 2, 2), and the
-        step's bound (:mod:`~resilient_tracking.runs.bound`; NaN when not computed)."""
+        step's bound (:mod:`~resilient_tracking.runs.bound`) when one is computed."""
         nll, nees = step_scores(estimate, truth, cov)
-        self.team.append_row(step=step, mse=mse(estimate, truth), nll=nll, nees=nees, bound=bound)
+        self.team.append_row(step=step, mse=mse(estimate, truth), nll=nll, nees=nees)
+        if bound is not None:
+            self.bound.append_row(step=step, bound=bound)
         n = len(truth)
         self.targets.append(n, step=step, target=np.arange(n), x=truth[:, 0], y=truth[:, 1])
 
@@ -134,12 +137,13 @@ class TruthRecorder:
             self.events.append_row(**{name: getattr(e, name) for name in EVENTS.names})
 
     def tables(self) -> dict[str, pd.DataFrame]:
-        """Truth's part of the team, targets and events tables, the zones and zone_tracks
-        tables."""
+        """Truth's part of the team, targets and events tables, the zones, zone_tracks and
+        bound tables."""
         return {
             "team": self.team.frame(),
             "targets": self.targets.frame(),
             "events": self.events.frame() if len(self.events) else EVENTS.empty_frame(),
             "zones": self.zones,
             "zone_tracks": zone_tracks(self._zones, len(self.team)),
+            "bound": self.bound.frame() if len(self.bound) else BOUND.empty_frame(),
         }

@@ -117,7 +117,7 @@ class EpisodeStepper:
         )
         #: the posterior Cramér–Rao bound, step by step, when asked (and recording)
         self.bound = position_bound(scenario, self.world) if bound and record else None
-        self._bound_now = float("nan")
+        self._bound_now: float | None = None
         #: the MSE of the team's estimate at the last step acted (NaN before the first)
         self.last_mse = float("nan")
         #: steps acted (and recorded) so far
@@ -214,8 +214,8 @@ def run_episode(
     """Run one episode; ``progress`` is called with the number of steps done.
 
     ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`);
-    ``bound``: also compute the posterior Cramér–Rao bound (the team table's ``bound``
-    column, else NaN).
+    ``bound``: also compute the posterior Cramér–Rao bound (the ``bound`` table, else
+    empty).
     """
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name

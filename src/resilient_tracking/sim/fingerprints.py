@@ -77,8 +77,8 @@ def fingerprinted_scenario(name: str) -> Scenario:
 def fingerprints(
     runs: Sequence[tuple[str, str]] = RUNS, columns: dict[str, list[str]] | None = None
 ) -> dict[str, dict[str, str]]:
-    """``"<scenario>/<policy>"`` → table name → fingerprint, for each of ``runs``, of each
-    table's ``columns`` (by table name; every column of a table it does not name)."""
+    """``"<scenario>/<policy>"`` → table name → fingerprint, for each of ``runs``, of the
+    ``columns`` of each table they name (every reproducible table, whole, when none given)."""
     columns = columns or {}
     out: dict[str, dict[str, str]] = {}
     for name, policy in runs:
@@ -86,6 +86,7 @@ def fingerprints(
         out[f"{name}/{policy}"] = {
             t: table_hash(result.tables[t][columns.get(t, list(result.tables[t].columns))])
             for t in REPRODUCIBLE
+            if not columns or t in columns
         }
     return out
 
