@@ -7,21 +7,29 @@ measurement information:
   ``½ Σ_c ∇ln R_c ∇ln R_cᵀ``, is the Monte Carlo Fisher information ``E[s sᵀ]`` of the score
   of the Gaussian log-likelihood, noise factor or not;
 * range-bearing: the project's EKF, which is not efficient, has an MSE no smaller than the
-  bound.
+  bound;
+* on every shipped scenario whose targets move by ``ncv`` (where the bound is exact), the
+  default team's pooled efficiency is at most 1 within Monte Carlo error.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
+from helpers import shipped
+from resilient_tracking import builtin_scenarios
 from resilient_tracking.belief.ekf import ExtendedKalmanFilter
 from resilient_tracking.belief.estimate import TargetEstimate
+from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.models.range_bearing import RangeBearingSensor
 from resilient_tracking.models.sensor import wrap_angle
 from resilient_tracking.runs.bound import PositionBound, measurement_information
+from resilient_tracking.runs.reading import run_data
 from resilient_tracking.scenario import NoisyConstantVelocity
+from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.world.motions import NoisyConstantVelocityMotion
 
 DT = 0.1
@@ -234,3 +242,42 @@ def test_the_ekfs_mse_is_no_smaller_than_the_bound_with_range_bearing_measuremen
     assert ratio > 1.0 - 3 * error, (ratio, error)
     late, late_error = ratio_and_error(squared[20:].mean(axis=0), bounds[20:].mean())
     assert 1.0 - 3 * late_error < late < 1.15, (late, late_error)
+
+
+# ---------------------------------------------------------------------------- shipped scenarios
+
+
+def ncv_scenarios() -> list[str]:
+    """The shipped scenarios whose targets all move by ``ncv``, read from their files."""
+    names = []
+    for name in builtin_scenarios.names():
+        data = yaml.safe_load(builtin_scenarios.path(name).read_text())
+        targets = data.get("targets") or []
+        if targets and all((t.get("motion") or {}).get("type") == "ncv" for t in targets):
+            names.append(name)
+    return names
+
+
+def test_a_shipped_scenario_has_targets_that_move_by_ncv():
+    assert "ncv-sensing" in ncv_scenarios()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ncv_scenarios())
+def test_the_default_team_is_no_more_efficient_than_the_bound_on_ncv_scenarios(name):
+    """Ten seeds of the default team with the bound: the pooled efficiency Σ bound / Σ MSE
+    (over seeds and steps) is at most 1 plus two of its standard errors (delta method over
+    the seeds' sums: a ratio of means)."""
+    scenario = shipped(name)
+    bounds, errors = [], []
+    for seed in range(1, 11):
+        result = run_episode(scenario, seed=seed, bound=True)
+        team = result["team"]
+        assert team["bound"].notna().all()
+        assert summarise_run(run_data(result))["bound_exact"]
+        bounds.append(team["bound"].sum())
+        errors.append(team["mse"].sum())
+    b, m = np.array(bounds), np.array(errors)
+    efficiency = b.sum() / m.sum()
+    error = np.sqrt(np.var(b - efficiency * m, ddof=1) / len(b)) / m.mean()
+    assert efficiency <= 1.0 + 2.0 * error, (efficiency, error)
