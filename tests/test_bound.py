@@ -86,12 +86,12 @@ def ratio_and_error(squared_errors: np.ndarray, bound: float) -> tuple[float, fl
 
 # ---------------------------------------------------------------------------- linear-Gaussian
 
-#: which robot measures at which step: robot 0 but for a gap, robot 1 every third step (its
-#: noise standard deviation doubled)
 STEPS = 60
 
 
 def linear_schedule(k: int) -> np.ndarray:
+    """Which robot measures at step ``k``: robot 0 but for a gap (steps 20 to 34), robot 1
+    (its noise standard deviation doubled) every third step."""
     return np.array([not 20 <= k < 35, k % 3 == 0])
 
 
