@@ -26,9 +26,9 @@ def bad_copy(tmp_path, mutate):
 def test_validate_accepts_every_shipped_scenario(capsys):
     paths = sorted(str(p) for p in SCENARIOS.glob("*.yaml"))
     # the paper's six, three benchmarks, the soak, the 40-robot swarm, bearing-only, two evasive,
-    # two lure and two degrade ones, comm-spread, two with a moving zone and one with a zone of
-    # two kinds
-    assert len(paths) == 22
+    # two lure and two degrade ones, comm-spread, two with a moving zone, one with a zone of
+    # two kinds and one with randomly moving (ncv) targets
+    assert len(paths) == 23
     assert main(["validate", *paths]) == 0
     assert capsys.readouterr().out.count(": ok") == len(paths)
 

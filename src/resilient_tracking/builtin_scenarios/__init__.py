@@ -4,8 +4,9 @@
 that react to the world: ``evasive-open``, ``evasive-zones``, ``lure-sensing`` and ``lure-comm``,
 two whose zones degrade instead of disabling: ``sensing-degrade`` and ``comm-degrade``,
 ``comm-spread`` (a permanent comm zone whose compromise spreads over links), two with a moving
-zone: ``moving-sensing`` and ``moving-comm-perm``, and ``multimodal``, one zone attacking both
-the sensor and the radio.
+zone: ``moving-sensing`` and ``moving-comm-perm``, ``multimodal``, one zone attacking both
+the sensor and the radio, and ``ncv-sensing``, whose targets move by the estimator's own
+nearly-constant-velocity model (so the posterior Cramér–Rao bound is a true bound there).
 
 They are package data, so they are found the same way from a checkout, an editable install or
 a wheel, whatever the working directory. Every command that takes a scenario accepts either a
