@@ -42,6 +42,7 @@ from resilient_tracking.experiments.comparison_stats import (
 )
 from resilient_tracking.experiments.comparison_tables import (
     bound_markdown,
+    consistency_markdown,
     summary_markdown,
     wins_markdown,
     zone_free_markdown,
@@ -301,6 +302,7 @@ def scenario_section(
         "and in how many seeds the policy did strictly better than every other one "
         "(lower is better, except survival steps).",
         summary_markdown(summary_table(zoned)),
+        consistency_markdown(zoned),
         "**Paired wins** (same seed, so the same zone draws):",
         wins_markdown(zoned),
     ]

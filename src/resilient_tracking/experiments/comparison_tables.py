@@ -91,6 +91,22 @@ def zone_free_markdown(runs: pd.DataFrame, reference: str) -> str:
     return "\n".join(lines)
 
 
+def consistency_markdown(runs: pd.DataFrame) -> str:
+    """Per policy, the runs whose ANEES lies inside its 95 % χ² band, and the band (its width
+    depends on a run's steps and targets only)."""
+    low, high = float(runs["anees_low"].min()), float(runs["anees_high"].max())
+    band = f"[{low:.3g}, {high:.3g}]" if np.isclose(low, runs["anees_low"].max()) else "per run"
+    cells = ", ".join(
+        f"{policy} {int(rows['anees_in_band'].astype(bool).sum())}/{len(rows)}"
+        for policy, rows in runs.groupby("policy", sort=False)
+    )
+    return (
+        f"**Consistency**: runs whose ANEES lies inside its 95 % band {band} (2 when the "
+        f"filter's covariance matches its errors; the band takes the steps as independent, so "
+        f"it is strict): {cells}."
+    )
+
+
 def bound_markdown(runs: pd.DataFrame) -> str:
     """Per policy, the mean posterior Cramér–Rao bound over seeds and the efficiency (mean bound
     ÷ mean MSE, pooled over seeds: 1 for an estimator that meets the bound)."""
