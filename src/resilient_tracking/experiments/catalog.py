@@ -369,7 +369,7 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
                 + ", ".join(f"`{n}`" for n in ADVERSARIAL)
                 + f", and on {QUICK_SUITE if quick else ADVERSARIAL_SUITE_SIZE} scenarios of the "
                 f"stored adversarial suite{' with small teams' if quick else ''} "
-                f"({ADVERSARIAL_SUITE_SEEDS} seed each)"
+                f"({ADVERSARIAL_SUITE_SEEDS} seeds each)"
             ),
             generated=partial(adversarial_cases, ADVERSARIAL, QUICK_SUITE, QUICK_MAX_PAIRS)
             if quick

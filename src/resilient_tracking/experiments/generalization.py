@@ -134,7 +134,7 @@ def _quantiles(values: pd.Series) -> str:
         return "no pairs"
     return (
         f"median {values.median():.2f}×, 90th percentile {np.percentile(values, 90):.2f}×, "
-        f"worst {values.max():.2f}× (over {len(values)} scenarios)"
+        f"worst {values.max():.2f}× (over {len(values)} runs: scenario and seed)"
     )
 
 
