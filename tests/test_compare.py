@@ -87,6 +87,8 @@ def test_paired_wins_and_best_counts_compare_seed_by_seed():
             "seed": [1, 1, 2, 2, 3, 3],
             "trace": [1.0, 2.0, 3.0, 1.0, 1.0, 5.0],
             "mse": 0.0,
+            "nll": [1.0, 2.0, 1.0, 2.0, 1.0, 2.0],
+            "anees": [2.1, 5.0, 1.5, 2.2, 2.0, 1.0],  # nearer 2: a, b, a
             "effort": 0.0,
             "sensing_attacks": 0,
             "comm_attacks": 0,
@@ -100,6 +102,9 @@ def test_paired_wins_and_best_counts_compare_seed_by_seed():
     assert table.loc[("a", "trace"), "best_in"] == 2
     assert table.loc[("b", "survival_steps"), "best_in"] == 3  # higher is better
     assert table.loc[("a", "mse"), "best_in"] == 0  # ties are no wins
+    assert table.loc[("a", "nll"), "best_in"] == 3
+    assert table.loc[("a", "anees"), "best_in"] == 2  # nearer 2, not lower
+    assert wins(runs, "anees").loc["b", "a"] == 1
 
 
 def test_unknown_policy_and_scenario_fail_before_running():
