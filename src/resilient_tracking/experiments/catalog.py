@@ -108,7 +108,7 @@ def _scale_variants(robots: Iterable[int], targets: Iterable[int]) -> tuple[Vari
 GENERALIZATION_SEEDS = 2
 #: The generated suite's size, and the quick (CI) run: its first few small-team scenarios.
 SUITE_SIZE = 60
-QUICK_SUITE = 4
+QUICK_SUITE = 2
 QUICK_MAX_PAIRS = 16
 
 
