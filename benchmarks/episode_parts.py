@@ -61,7 +61,8 @@ def measure(name: str, policy: str, seed: int) -> dict[str, float]:
         applied = world.step(out.controls)
         e = clock()
         team_rows.step(obs, out, applied, team.belief)
-        truth_rows.step(obs.step, truth[:, :2], team.belief.team_estimate().mean[:, :2])
+        estimate = team.belief.team_estimate()
+        truth_rows.step(obs.step, truth[:, :2], estimate.mean[:, :2], estimate.cov[:, :2, :2])
         f = clock()
         plan = decision.plan_ms / 1e3
         for part, seconds in zip(
