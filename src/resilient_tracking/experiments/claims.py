@@ -17,7 +17,11 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking.experiments.catalog import Experiment
-from resilient_tracking.experiments.generalization import straggler_share, zone_free_rows
+from resilient_tracking.experiments.generalization import (
+    straggler_share,
+    true_tags,
+    zone_free_rows,
+)
 from resilient_tracking.experiments.paired import (
     HEADLINE,
     Outcomes,
@@ -350,7 +354,7 @@ BEYOND_SUITE_TARGETS = {"default": 0.15, "vanilla": 0.1}
 def _degrades(rows: pd.DataFrame) -> bool:
     """Whether the scenario of these runs has a sensing zone that degrades rather than
     destroys (``tag_degrades``), where the beyond team's filter claims to stay consistent."""
-    return bool("tag_degrades" in rows and rows["tag_degrades"].astype(bool).any())
+    return bool("tag_degrades" in rows and true_tags(rows["tag_degrades"]).any())
 
 
 def beyond_targets(exp: Experiment, s: pd.DataFrame) -> list[Claim]:

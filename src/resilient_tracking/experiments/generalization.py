@@ -53,7 +53,12 @@ def zone_free_rows(summary: pd.DataFrame) -> pd.Series:
     sweep that made no zone-free runs, or a row missing it) is not one."""
     if "tag_no_zones" not in summary:
         return pd.Series(False, index=summary.index)
-    tags = summary["tag_no_zones"]
+    return true_tags(summary["tag_no_zones"])
+
+
+def true_tags(tags: pd.Series) -> pd.Series:
+    """Which of a boolean tag's values are true, whether read back as bools or as text (a
+    CSV's ``True``; blank or anything else is false)."""
     return tags.map(lambda tag: tag is True or str(tag).strip().lower() == "true").astype(bool)
 
 

@@ -62,11 +62,6 @@ class Outcomes:
         """Scenarios compared with at least two paired seeds."""
         return self.wins + self.ties + self.losses
 
-    def share(self, outcome: Outcome) -> float:
-        """Share of the :attr:`n` scenarios with ``outcome`` (NaN when none)."""
-        count = {"win": self.wins, "tie": self.ties, "loss": self.losses}[outcome]
-        return count / self.n if self.n else float("nan")
-
     def __str__(self) -> str:
         text = f"{self.wins} won, {self.ties} tied, {self.losses} lost of {self.n}"
         return text + (f" ({self.short} with fewer than two paired seeds)" if self.short else "")

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from resilient_tracking.experiments.known_zones import losses_by_knowledge
-from resilient_tracking.runs.bound import LINEAR_GAUSSIAN_MOTIONS
+from resilient_tracking.runs.bound import exact_for
 from resilient_tracking.runs.metrics import anees_band
 from resilient_tracking.runs.reading import RunData, attack_table
 
@@ -72,13 +72,11 @@ def consistency(team: pd.DataFrame, n_targets: int) -> dict[str, Any]:
 
 
 def bound_exact(run: RunData) -> bool:
-    """Whether every target of the run moves by the linear-Gaussian model the bound assumes
-    (:data:`~resilient_tracking.runs.bound.LINEAR_GAUSSIAN_MOTIONS`): its bound is a true
-    bound, not an indicative one."""
+    """Whether every target of the run, as its manifest's scenario declares it, moves by the
+    linear-Gaussian model the bound assumes (:func:`~resilient_tracking.runs.bound.exact_for`):
+    its bound is a true bound, not an indicative one."""
     targets = run.scenario.get("targets", []) or []
-    return bool(targets) and all(
-        (t.get("motion") or {}).get("type") in LINEAR_GAUSSIAN_MOTIONS for t in targets
-    )
+    return exact_for([str((t.get("motion") or {}).get("type", "")) for t in targets])
 
 
 def bound_summary(run: RunData) -> dict[str, Any]:

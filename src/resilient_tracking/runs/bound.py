@@ -34,6 +34,14 @@ from resilient_tracking.models.sensor import MeasurementModel
 
 #: Target motions whose truth is the linear-Gaussian model the bound assumes.
 LINEAR_GAUSSIAN_MOTIONS = ("ncv", "constant_velocity")
+
+
+def exact_for(motion_types: Sequence[str]) -> bool:
+    """Whether targets moving by ``motion_types`` (one per target) all follow the
+    linear-Gaussian model the bound assumes, so that it is a true bound."""
+    return bool(motion_types) and all(m in LINEAR_GAUSSIAN_MOTIONS for m in motion_types)
+
+
 #: Relative step of the central differences of ``ln R`` (m per m of position).
 _STEP = 1e-6
 
@@ -84,7 +92,7 @@ class PositionBound:
         self.sensor = sensor
         #: whether every target moves by the linear-Gaussian model (a true bound), or the bound
         #: borrows the estimator's model for some (indicative only)
-        self.exact = all(m.type in LINEAR_GAUSSIAN_MOTIONS for m in motions)
+        self.exact = exact_for([m.type for m in motions])
         self._transition = NearlyConstantVelocity(dt, 0.0).transition
         self._noise = np.array([self._process_noise(m, dt, filter_accel_std) for m in motions])
         prior = np.diag([initial_position_std**2] * 2 + [initial_velocity_std**2] * 2)
