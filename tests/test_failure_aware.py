@@ -381,17 +381,17 @@ def test_zone_rows_follow_the_known_zones_w5_and_being_alone():
     rows = policy._zone_rows(knowledge, 0.2, True, 0.01)  # exposure changed: new rows
     np.testing.assert_array_equal(rows[0], fresh._make_zone_rows(knowledge, 0.2, True, 0.01)[0])
     knowledge.learn(zone("zone2", "sensing", 3.0))
-    sensing, comm, keys, n_sensing = policy._zone_rows(knowledge, 0.2, True, 0.02)
+    sensing, comm, keys, n_sensing, _ = policy._zone_rows(knowledge, 0.2, True, 0.02)
     assert len(sensing) == 3 and len(comm) == 0  # alone: the comm zone becomes a disc
     assert (keys, n_sensing) == (["zone0", "zone2", "zone1"], 2)
-    sensing, comm, _, _ = policy._zone_rows(knowledge, 0.2, False, 0.02)
+    sensing, comm, _, _, _ = policy._zone_rows(knowledge, 0.2, False, 0.02)
     assert (len(sensing), len(comm)) == (3, 1)  # a league: the disc (hazard) and eq. 7d
     knowledge.learn(
         ZoneEstimate(
             "zone3", "comm", np.array([6.0, 0.0]), 0.1 * np.eye(2), 0.4, "temporary", "attack", 1
         )
     )
-    sensing, comm, _, _ = policy._zone_rows(knowledge, 0.2, False, 0.02)
+    sensing, comm, _, _, _ = policy._zone_rows(knowledge, 0.2, False, 0.02)
     assert (len(sensing), len(comm)) == (3, 2)  # a temporary one: eq. 7d only
 
 
@@ -418,10 +418,10 @@ def test_a_league_guards_known_temporary_jammers_only_when_asked(guard):
         ("c", "unknown", 9.0),
     ]:
         knowledge.learn(comm(key, persistence, x))
-    _, league_rows, _, _ = policy._make_zone_rows(knowledge, 0.0, False, params.eps1)
+    _, league_rows, _, _, _ = policy._make_zone_rows(knowledge, 0.0, False, params.eps1)
     kept = {float(row[0]) for row in league_rows}  # each row starts with the zone's x
     assert kept == ({1.0, 5.0, 9.0} if guard else {5.0, 9.0})
-    discs, _, _, _ = policy._make_zone_rows(knowledge, 0.0, True, params.eps1)
+    discs, _, _, _, _ = policy._make_zone_rows(knowledge, 0.0, True, params.eps1)
     assert len(discs) == 3  # a robot alone keeps clear of every known comm zone either way
 
 
@@ -442,7 +442,7 @@ def test_the_hazard_guard_keeps_a_league_off_known_comm_zones_and_spares_the_las
             "c", "comm", np.array([2.0, 0.0]), 0.1 * np.eye(2), 0.2, "permanent", "attack", 1
         )
     )
-    discs, jam_rows, _, _ = policy._make_zone_rows(knowledge, 0.3, False, params.eps1)
+    discs, jam_rows, _, _, _ = policy._make_zone_rows(knowledge, 0.3, False, params.eps1)
     assert len(jam_rows) == 1
     if guard:
         assert len(discs) == 1

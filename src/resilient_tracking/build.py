@@ -36,6 +36,7 @@ def team_config(scenario: Scenario) -> TeamConfig:
         sensor=scenario.sensor.model(),
         target_model=NearlyConstantVelocity(scenario.dt, scenario.estimator.accel_std),
         comm_range=scenario.comm_range,
+        mission_steps=scenario.steps,
     )
 
 

@@ -22,6 +22,8 @@ class TeamConfig:
     target_model: NearlyConstantVelocity
     #: links beyond this distance are lost without any jammer (None: no range limit)
     comm_range: float | None = None
+    #: the mission's length in steps, when the team is told it (None: not known)
+    mission_steps: int | None = None
 
     @property
     def n_robots(self) -> int:

@@ -41,12 +41,14 @@ from resilient_tracking.planning.planner import LeaguePlanner
 from resilient_tracking.policies.base import Decision, Policy, register_policy
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.policies.guards import Guard, GuardsSpec
+from resilient_tracking.policies.guards.base import LeagueRows
 from resilient_tracking.policies.planning_helpers import PlanningPolicy
 from resilient_tracking.team_config import TeamConfig
 
 #: the sensing and the comm zone table of a league problem (``layout.SensingRow``, ``CommRow``),
-#: the zone key of each sensing-table row, and how many of those rows are sensing zones'
-ZoneRows = tuple[np.ndarray, np.ndarray, list[str], int]
+#: the zone key of each sensing-table row, how many of those rows are sensing zones', and the
+#: zone key of each comm-table row
+ZoneRows = tuple[np.ndarray, np.ndarray, list[str], int, list[str]]
 
 
 @register_policy("failure_aware")
@@ -138,9 +140,17 @@ class FailureAwarePolicy(PlanningPolicy):
             weights = self._situation_weights(cooling, alone, attacked, m)
             mode = "individual" if alone else "cooldown" if cooling else "league"
             rows = self._zone_rows(knowledge, weights[4], alone, eps_sensing)
-            table, comm_rows, keys, n_sensing = rows
+            table, comm_rows, keys, n_sensing, comm_keys = rows
             for guard in self.guards:
                 guard.after_rows(keys, table, n_sensing, robots, obs)
+            for guard in self.guards:  # risk levels priced by what a failure would cost
+                guard.price_rows(
+                    LeagueRows(table, keys, comm_rows, comm_keys),
+                    robots,
+                    belief.estimates[k],
+                    knowledge,
+                    obs,
+                )
             sensing_rows = table
             for guard in self.guards:  # the guards' own eq. 7c rows, after the zones'
                 own, events = guard.league_rows(
@@ -219,8 +229,8 @@ class FailureAwarePolicy(PlanningPolicy):
         ):
             rows = self._make_zone_rows(knowledge, w5, alone, eps_sensing)
             last = self._last_rows = (zones, (w5, alone, eps_sensing, levels), rows)
-        sensing, comm, keys, n_sensing = last[2]
-        return sensing.copy(), comm.copy(), keys, n_sensing
+        sensing, comm, keys, n_sensing, comm_keys = last[2]
+        return sensing.copy(), comm.copy(), keys, n_sensing, comm_keys
 
     def _make_zone_rows(
         self, knowledge: KnowledgeBase, w5: float, alone: bool, eps_sensing: float
@@ -231,7 +241,7 @@ class FailureAwarePolicy(PlanningPolicy):
             rows_s.append(sensing_row(z.mean, z.cov, r_safe=z.size + w5 + z.clearance, beta=beta))
             keys.append(z.key)
         n_sensing = len(rows_s)
-        rows_c = []
+        rows_c, comm_keys = [], []
         for z in knowledge.of_kind("comm"):
             hazard = any(guard.guards_hazard(z) for guard in self.guards)
             beta = self._margin(self.params.eps1, z) if hazard else self.beta2
@@ -248,7 +258,8 @@ class FailureAwarePolicy(PlanningPolicy):
                 rows_c.append(
                     comm_row(z.mean, z.cov, z.size, beta=self.beta2, clearance=z.clearance)
                 )
-        return sensing_table(rows_s), comm_table(rows_c), keys, n_sensing
+                comm_keys.append(z.key)
+        return sensing_table(rows_s), comm_table(rows_c), keys, n_sensing, comm_keys
 
     def _circle(
         self, robot: int, knowledge: KnowledgeBase, obs: TeamObservation, decision: Decision
@@ -273,7 +284,7 @@ class FailureAwarePolicy(PlanningPolicy):
             )
 
         def keep_out() -> np.ndarray:  # the sensing zones' keep-out rows at ε1
-            table, _, _, n_sensing = self._make_zone_rows(knowledge, 0.0, True, self.params.eps1)
+            table, _, _, n_sensing, _ = self._make_zone_rows(knowledge, 0.0, True, self.params.eps1)
             return table[:n_sensing]
 
         direction = self._circling.get(robot, 1.0)

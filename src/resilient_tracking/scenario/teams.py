@@ -103,6 +103,12 @@ TEAMS: dict[str, NamedTeam] = {
             _BEYOND,
         ),
         NamedTeam(
+            "priced",
+            "the default team with each zone's risk level priced by what its failure would"
+            " cost (the last sensors' guard folded in)",
+            {"guards.priced.enabled": True, "guards.last_sensors.enabled": False},
+        ),
+        NamedTeam(
             "vanilla",
             "the paper's baseline: fixed weights, no zone knowledge, no chance constraints",
             {"policy.name": "vanilla"},

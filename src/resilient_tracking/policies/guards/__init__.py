@@ -9,7 +9,8 @@ Built-ins (docs/model.md §6), in the order they register and add their rows:
 - ``quarantine``: keep out of radio range of teammates known compromised;
 - ``safe_circling`` (on by default): a circling robot turns back at a known sensing zone;
 - ``signal_turns``: a robot circles its attacker a few times, then tracks alone again;
-- ``ignore_temporary_jammers``: leagues plan as if known temporary jammers were not there.
+- ``ignore_temporary_jammers``: leagues plan as if known temporary jammers were not there;
+- ``priced``: each zone row's risk level follows what its failure would cost.
 
 The contract is :class:`~.base.Guard`; a new guard is one new file that registers itself
 (:func:`~.base.register_guard`) or an entry point of the group ``resilient_tracking.guards``.
@@ -22,6 +23,7 @@ from resilient_tracking.policies.guards.comm_hazard import CommHazardGuard
 from resilient_tracking.policies.guards.exposure import ExposureGuard
 from resilient_tracking.policies.guards.last_sensors import LastSensorsGuard
 from resilient_tracking.policies.guards.lure import LureGuard
+from resilient_tracking.policies.guards.priced import PricedCautionGuard
 from resilient_tracking.policies.guards.quarantine import QuarantineGuard
 from resilient_tracking.policies.guards.safe_circling import SafeCirclingGuard
 from resilient_tracking.policies.guards.settings import GuardsSpec
@@ -38,6 +40,7 @@ __all__ = [
     "IgnoreTemporaryJammersGuard",
     "LastSensorsGuard",
     "LureGuard",
+    "PricedCautionGuard",
     "QuarantineGuard",
     "SafeCirclingGuard",
     "SignalTurnsGuard",

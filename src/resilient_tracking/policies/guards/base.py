@@ -11,6 +11,8 @@ overrides only what it does:
   (:meth:`Guard.sensing_risk`, :meth:`Guard.zone_risk`), a keep-out disc around a known comm
   zone's hazard (:meth:`Guard.guards_hazard`), whether a known comm zone's eq. 7d rows stay
   (:meth:`Guard.guards_links`), and rows of its own (:meth:`Guard.league_rows`, eq. 7c);
+* what a failure **costs**: the risk levels of a league's zone rows, changed in place
+  (:meth:`Guard.price_rows`, after every guard's :meth:`Guard.after_rows`);
 * how a robot **circles its attacker** (Alg. 4): when it may stop (:meth:`Guard.stops_circling`)
   and when it turns back (:meth:`Guard.turns_back`);
 * the **events** it emits, returned by :meth:`Guard.league_rows`.
@@ -23,13 +25,14 @@ one new file.
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from pydantic import Field
 
 from resilient_tracking.belief.estimate import TargetEstimate
-from resilient_tracking.belief.knowledge import ZoneEstimate
+from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.events import Event
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning.layout import sensing_table
@@ -39,6 +42,18 @@ from resilient_tracking.team_config import TeamConfig
 
 if TYPE_CHECKING:
     from resilient_tracking.policies.failure_aware_params import FailureAwareParams
+
+
+@dataclass
+class LeagueRows:
+    """A league's zone rows for one tick, which :meth:`Guard.price_rows` may change in place:
+    the eq. 7c table (``layout.SensingRow``; sensing zones' rows, then comm zones' keep-out
+    discs) and the eq. 7d table (``layout.CommRow``), each row's zone key beside it."""
+
+    sensing: np.ndarray
+    sensing_keys: list[str]
+    comm: np.ndarray
+    comm_keys: list[str]
 
 
 class GuardParams(Strict):
@@ -112,6 +127,17 @@ class Guard:
         rows ``zone_rows``), from its ``estimate`` and the estimate ``predicted`` to the planned
         step, at the margin ``beta1`` of risk level ε1; and the events of what it found."""
         return sensing_table(), []
+
+    def price_rows(
+        self,
+        rows: LeagueRows,
+        robots: list[int],
+        estimate: TargetEstimate,
+        knowledge: KnowledgeBase,
+        obs: TeamObservation,
+    ) -> None:
+        """Change the risk levels (the ``BETA`` column) of the league ``robots``' zone ``rows``
+        in place, from its ``estimate``, the zones it knows and ``obs``."""
 
     def stops_circling(
         self, robot: int, attacker: ZoneEstimate | None, obs: TeamObservation

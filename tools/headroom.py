@@ -1,0 +1,269 @@
+"""Headroom of caution: per scenario, the best of a grid of fixed caution settings chosen in
+hindsight (a reference, not a team), against vanilla and the paper's team.
+
+The grid varies one thing of the default team at a time: each zone kind's risk level (the
+paper's value, ×0.2, ×5, or ×3 for ε2, whose ×5 is not a probability below ½), no avoidance of
+that kind (zero slack weights), and each bundle of extensions (teams ``beyond`` and
+``adversarial``). Scenarios: the three stored suites on seeds 1–2, and the shipped scenarios of
+the paper, the beyond and the adversarial experiments on seeds 1–4. Runs are stored under
+``OUT/runs`` like ``rtrack reproduce``'s (the reproduction's own runs are reused), so an
+interrupted measurement resumes::
+
+    python tools/headroom.py --out docs/results --jobs 2
+
+writes ``OUT/headroom.md`` and ``OUT/headroom.csv`` (one row per run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import shutil
+import sys
+from collections.abc import Iterable
+from itertools import zip_longest
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from resilient_tracking.experiments.arms import Task, Variant, team_arm
+from resilient_tracking.experiments.catalog import (
+    ADVERSARIAL,
+    BEYOND,
+    SIX,
+    _generated_arm,
+    _shipped,
+)
+from resilient_tracking.experiments.generator import (
+    stored_adversarial_suite,
+    stored_beyond_suite,
+    stored_suite,
+)
+from resilient_tracking.experiments.paired import paired_outcome
+from resilient_tracking.experiments.summary import summarise_run
+from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
+from resilient_tracking.policies.failure_aware_params import FailureAwareParams
+from resilient_tracking.runs.reading import load_run
+from resilient_tracking.scenario import Scenario
+
+log = logging.getLogger("headroom")
+
+
+def _no_slack(kind: str) -> dict[str, Any]:
+    """The three weight sets of eq. 10 with zero slack weight on ``kind``'s chance
+    constraints: its zones are known but not avoided."""
+    defaults = FailureAwareParams()
+    field = "sensing_slack" if kind == "sensing" else "comm_slack"
+    return {
+        f"policy.failure_aware.{name}": getattr(defaults, name).model_dump() | {field: 0.0}
+        for name in ("risky", "safe", "cooldown")
+    }
+
+
+#: The caution grid: label → settings over the default team, by dotted path.
+GRID: dict[str, dict[str, Any]] = {
+    "default": {},
+    "eps1-x0.2": {"policy.failure_aware.eps1": 0.004},
+    "eps1-x5": {"policy.failure_aware.eps1": 0.1},
+    "sensing-off": _no_slack("sensing"),
+    "eps2-x0.2": {"policy.failure_aware.eps2": 0.03},
+    "eps2-x3": {"policy.failure_aware.eps2": 0.45},
+    "comm-off": _no_slack("comm") | {"guards.comm_hazard.enabled": False},
+    "beyond": dict(team_arm("beyond").overrides),
+    "adversarial": dict(team_arm("adversarial").overrides),
+}
+#: The references every oracle is measured against.
+BASELINES = ("vanilla", "paper")
+
+
+def arms() -> dict[str, Variant]:
+    """Every arm by label: the grid's (failure-aware) and the baselines' teams."""
+    out = {label: Variant(label, "failure_aware", settings) for label, settings in GRID.items()}
+    for team in BASELINES:
+        out[team] = team_arm(team)
+    return out
+
+
+def cases() -> list[tuple[str, Scenario, int]]:
+    """(suite, scenario, seeds): the shipped scenarios on 4 seeds, then the stored suites on 2,
+    taken in turn (one scenario of each suite, then the next), so that a measurement stopped
+    early has covered every suite alike."""
+    found: list[tuple[str, Scenario, int]] = []
+    for suite, names in (
+        ("paper", SIX),
+        ("beyond-shipped", BEYOND),
+        ("adversarial-shipped", ADVERSARIAL),
+    ):
+        found += [(suite, s, 4) for s in _shipped(names, None)]
+    suites = [
+        [("generalization", s, 2) for s in stored_suite()],
+        [("beyond", s, 2) for s in stored_beyond_suite()],
+        [("adversarial", s, 2) for s in stored_adversarial_suite()],
+    ]
+    found += [case for turn in zip_longest(*suites) for case in turn if case is not None]
+    return found
+
+
+def tasks(chosen: Iterable[str] | None = None) -> list[Task]:
+    """Every run of the measurement (only the arms ``chosen``, if given)."""
+    table = arms()
+    labels = list(chosen or table)
+    out = []
+    for suite, scenario, seeds in cases():
+        for label in labels:
+            arm = table[label]
+            variant = Variant(
+                f"{scenario.name}-{label}",
+                arm.policy,
+                arm.overrides,
+                tags={"suite": suite, "scenario": scenario.name, "arm": label},
+            )
+            arm_scenario = _generated_arm(scenario, variant)
+            out += [
+                Task(f"headroom-{suite}", variant, seed, arm_scenario.with_overrides(seed=seed))
+                for seed in range(1, seeds + 1)
+            ]
+    return out
+
+
+def adopt_stored(out: Path, runs: list[Task]) -> int:
+    """Copy into place every run not yet stored whose fingerprint a run stored elsewhere under
+    ``out/runs`` carries (the reproduction's own runs of the same arm); returns how many."""
+    wanted = {t.fingerprint: t for t in runs if not is_done(out, t)}
+    adopted = 0
+    for manifest in (out / "runs").glob("*/*/seed-*/manifest.json"):
+        try:
+            fingerprint = json.loads(manifest.read_text())["fingerprint"]
+        except (OSError, ValueError, KeyError):
+            continue
+        task = wanted.pop(fingerprint, None)
+        if task is not None and manifest.parent != run_dir(out, task):
+            target = run_dir(out, task)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copytree(manifest.parent, target)
+            adopted += 1
+    return adopted
+
+
+def summary(out: Path, runs: list[Task]) -> pd.DataFrame:
+    """One row per stored run, with its suite, scenario and arm."""
+    rows = []
+    for t in runs:
+        if not is_done(out, t):
+            continue
+        row = summarise_run(load_run(run_dir(out, t)))
+        rows.append({**{f"tag_{k}": v for k, v in t.variant.tags.items()}, **row})
+    return pd.DataFrame(rows)
+
+
+def oracle_rows(runs: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """Per (suite, scenario, seed), the value of the grid arm with the lowest mean ``metric``
+    over that scenario's seeds (chosen in hindsight), as arm ``oracle``; with which arm it was."""
+    grid = runs[runs["tag_arm"].isin(GRID)]
+    means = grid.groupby(["tag_suite", "tag_scenario", "tag_arm"])[metric].mean()
+    best = means.groupby(level=[0, 1]).idxmin().map(lambda key: key[2]).rename("best")
+    picked = grid.merge(best, left_on=["tag_suite", "tag_scenario"], right_index=True)
+    picked = picked[picked["tag_arm"] == picked["best"]].copy()
+    picked["tag_arm"] = "oracle"
+    return picked
+
+
+def outcomes(runs: pd.DataFrame, metric: str, mine: str, theirs: str) -> dict[str, int]:
+    """Scenarios won, tied and lost by ``mine`` against ``theirs`` (paired seeds)."""
+    wide = runs.pivot_table(index=["tag_scenario", "seed"], columns="tag_arm", values=metric)
+    counts = {"win": 0, "tie": 0, "loss": 0, "short": 0}
+    if mine not in wide or theirs not in wide:
+        return counts
+    diff = (wide[mine] - wide[theirs]).dropna()
+    for _, d in diff.groupby(level=0):
+        counts[paired_outcome(d.to_numpy())] += 1
+    return counts
+
+
+def _share(c: dict[str, int]) -> str:
+    decided = c["win"] + c["loss"]
+    rate = f"{c['win'] / decided:.0%}" if decided else "–"
+    return f"{c['win']}/{c['tie']}/{c['loss']} ({rate})"
+
+
+def report(runs: pd.DataFrame) -> str:
+    """The markdown: per suite and metric, the oracle's and the default team's outcomes against
+    vanilla and the paper's team, and which grid arm the oracle picked how often."""
+    lines = [
+        "# Headroom of caution: the best fixed setting per scenario, in hindsight",
+        "",
+        "A reference, not a team: per scenario, the arm of the caution grid with the lowest mean",
+        "over that scenario's seeds, chosen after the fact (`tools/headroom.py`). Entries are",
+        "scenarios won/tied/lost by the paired 95 % interval over seeds (the share won of those",
+        "decided in brackets).",
+        "",
+        "Grid: " + ", ".join(f"`{g}`" for g in GRID) + ".",
+        "",
+        "| suite | metric | scenarios | oracle vs vanilla | oracle vs paper | default vs vanilla "
+        "| default vs paper | oracle's picks |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for suite, rows in runs.groupby("tag_suite", sort=False):
+        for metric in ("mse", "nll"):
+            both = pd.concat([rows, oracle_rows(rows, metric)])
+            picks = oracle_rows(rows, metric).drop_duplicates("tag_scenario")["best"]
+            counts = ", ".join(f"{k} {v}" for k, v in picks.value_counts().items())
+            cells = [
+                _share(outcomes(both, metric, mine, theirs))
+                for mine, theirs in (
+                    ("oracle", "vanilla"),
+                    ("oracle", "paper"),
+                    ("default", "vanilla"),
+                    ("default", "paper"),
+                )
+            ]
+            n = rows["tag_scenario"].nunique()
+            lines.append(
+                f"| {suite} | {metric.upper()} | {n} | " + " | ".join(cells) + f" | {counts} |"
+            )
+    lines += [
+        "",
+        "Mean MSE ratio to vanilla per arm and suite (mean over scenarios of the ratio of means):",
+        "",
+    ]
+    means = runs.groupby(["tag_suite", "tag_scenario", "tag_arm"])["mse"].mean().unstack()
+    ratio = means.div(means["vanilla"], axis=0).groupby(level=0, sort=False).mean()
+    cols = [c for c in [*GRID, *BASELINES] if c in ratio]
+    lines += ["| suite | " + " | ".join(cols) + " |", "|---" * (len(cols) + 1) + "|"]
+    for name, r in ratio[cols].iterrows():
+        cells = [f"{v:.2f}" if np.isfinite(v) else "–" for v in r]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=Path("docs/results"))
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--arms", nargs="*", help="only these arms (default: all)")
+    parser.add_argument("--report-only", action="store_true", help="summarise what is stored")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    runs = tasks(args.arms)
+    if not args.report_only:
+        done = [0]
+
+        def progress(task: Task, ran: bool) -> None:
+            done[0] += 1
+            if ran and done[0] % 50 == 0:
+                log.info("%d/%d", done[0], len(runs))
+
+        log.info("%d run(s) adopted from the reproduction", adopt_stored(args.out, runs))
+        run_sweep(runs, args.out, jobs=args.jobs, on_done=progress)
+    table = summary(args.out, runs)
+    table.to_csv(args.out / "headroom.csv", index=False)
+    (args.out / "headroom.md").write_text(report(table))
+    print(report(table))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
