@@ -77,11 +77,21 @@ GRID: dict[str, dict[str, Any]] = {
 }
 #: The references every oracle is measured against.
 BASELINES = ("vanilla", "paper")
+#: Teams measured beside the oracle: label → settings over the default team.
+_ON_EVIDENCE = {"estimator.type": "adaptive", "estimator.on_evidence": True}
+CANDIDATES: dict[str, dict[str, Any]] = {
+    "evidence": _ON_EVIDENCE,
+    "evidence-priced": _ON_EVIDENCE | dict(team_arm("priced").overrides),
+}
 
 
 def arms() -> dict[str, Variant]:
-    """Every arm by label: the grid's (failure-aware) and the baselines' teams."""
-    out = {label: Variant(label, "failure_aware", settings) for label, settings in GRID.items()}
+    """Every arm by label: the grid's and the candidates' (failure-aware), and the
+    baselines' teams."""
+    out = {
+        label: Variant(label, "failure_aware", settings)
+        for label, settings in (GRID | CANDIDATES).items()
+    }
     for team in BASELINES:
         out[team] = team_arm(team)
     return out
@@ -245,6 +255,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--arms", nargs="*", help="only these arms (default: all)")
     parser.add_argument("--report-only", action="store_true", help="summarise what is stored")
+    parser.add_argument(
+        "--also", nargs="*", type=Path, default=[], help="headroom.csv files of other runs to add"
+    )
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     runs = tasks(args.arms)
@@ -259,6 +272,9 @@ def main(argv: list[str] | None = None) -> int:
         log.info("%d run(s) adopted from the reproduction", adopt_stored(args.out, runs))
         run_sweep(runs, args.out, jobs=args.jobs, on_done=progress)
     table = summary(args.out, runs)
+    if args.also:
+        table = pd.concat([table, *(pd.read_csv(f) for f in args.also)], ignore_index=True)
+        table = table.drop_duplicates(["tag_suite", "tag_scenario", "tag_arm", "seed"])
     table.to_csv(args.out / "headroom.csv", index=False)
     (args.out / "headroom.md").write_text(report(table))
     print(report(table))

@@ -17,6 +17,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.estimator import Estimator
 from resilient_tracking.belief.imm import InteractingMultipleModel
 from resilient_tracking.belief.knowledge import ZoneEstimate
+from resilient_tracking.belief.on_evidence import AdaptiveOnEvidence, Evidence
 from resilient_tracking.models.motion import NearlyConstantVelocity
 from resilient_tracking.observation import ZoneClue
 from resilient_tracking.planning.planner import LeaguePlanner
@@ -47,7 +48,7 @@ def make_estimator(scenario: Scenario, config: TeamConfig | None = None) -> Esti
     config = config or team_config(scenario)
     spec = scenario.estimator
     if isinstance(spec, AdaptiveEstimatorSpec):
-        return InteractingMultipleModel.noise_levels(
+        adaptive = InteractingMultipleModel.noise_levels(
             scenario.dt,
             spec.noise_levels(),
             spec.switch_probability,
@@ -55,6 +56,11 @@ def make_estimator(scenario: Scenario, config: TeamConfig | None = None) -> Esti
             spec.update_iterations,
             spec.second_order,
         )
+        if not spec.on_evidence:
+            return adaptive
+        ekf = ExtendedKalmanFilter(config.target_model, config.sensor)
+        evidence = Evidence(spec.evidence_window, spec.evidence_level)
+        return AdaptiveOnEvidence(ekf, adaptive, evidence)
     if isinstance(spec, ImmEstimatorSpec):
         return InteractingMultipleModel.quiet_and_manoeuvre(
             scenario.dt,

@@ -22,6 +22,7 @@ from resilient_tracking.spec import (
     MAX_POSITION_STD,
     MAX_RATIO,
     MAX_SPEED,
+    MAX_STEP_COUNT,
     MAX_TURN_RATE,
     MAX_UPDATE_ITERATIONS,
     Velocity2,
@@ -322,6 +323,28 @@ class AdaptiveEstimatorSpec(_MultipleModelBase):
             "equally likely."
         ),
         json_schema_extra={"unit": "per step"},
+    )
+
+    on_evidence: bool = Field(
+        False,
+        description=(
+            "Track with the EKF (at accel_std) until its innovations reject its target model "
+            "(a χ² test over evidence_window updates), then with the ladder; false: the ladder "
+            "from the start."
+        ),
+    )
+    evidence_window: int = Field(
+        20,
+        ge=1,
+        le=MAX_STEP_COUNT,
+        description="Updates whose normalised innovations are summed for the switch's test.",
+        json_schema_extra={"unit": "updates"},
+    )
+    evidence_level: float = Field(
+        1e-3,
+        gt=0,
+        lt=0.5,
+        description="False-alarm probability of one test of the switch (χ² quantile 1 − level).",
     )
 
     @model_validator(mode="after")
