@@ -103,11 +103,27 @@ def test_a_permanent_failure_of_one_of_equal_sensors_at_the_start_keeps_the_pape
     assert eps == pytest.approx(EPS1, rel=1e-6)
 
 
-def test_a_permanent_loss_late_in_the_mission_is_cheaper():
-    (early,), _ = priced_levels(guard(), [zone()], observation(step=0))
-    (late,), _ = priced_levels(guard(), [zone()], observation(step=200))
-    assert late == pytest.approx(EPS1 * 300 / 100, rel=1e-6)
-    assert late > early
+def test_a_permanent_loss_is_never_priced_below_the_papers_level():
+    # late in the mission, and for a robot that adds less than an equal share now
+    (late,), _ = priced_levels(guard(), [zone()], observation(step=290))
+    assert late == pytest.approx(EPS1, rel=1e-6)
+    g = guard(reach=0.5)
+    g.observe(observation())
+    far_targets = TargetEstimate.initial(np.array([[5.0, 0.0, 0.0, 0.0]]), 0.1, 0.1)
+    values = g.sensor_values(far_targets, observation())
+    assert values.min() < values.max()  # unequal shares
+    (eps,), _ = priced_levels(g, [zone(robot=int(np.argmin(values)))], observation())
+    assert eps == pytest.approx(EPS1, rel=1e-6)
+
+
+def test_a_robot_that_adds_more_than_an_equal_share_is_priced_above_it():
+    g = guard(reach=0.5)
+    far_targets = TargetEstimate.initial(np.array([[5.0, 0.0, 0.0, 0.0]]), 0.1, 0.1)
+    values = g.sensor_values(far_targets, observation())
+    best = int(np.argmax(values))
+    assert values[best] > 1 / 3
+    ratio = g.cost_ratio(zone(robot=best), "sensing", True, float(values[best]))
+    assert ratio == pytest.approx(3 * values[best])
 
 
 def test_the_last_working_sensor_is_worth_the_mission():

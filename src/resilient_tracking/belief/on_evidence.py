@@ -6,8 +6,9 @@ normalised innovation squared of every measurement the team used over the last `
 updates: under the EKF's model their sum is χ²-distributed with as many degrees of freedom as
 measurement channels, and the switch comes when it leaves that distribution's two-sided
 ``1 − level`` interval — above it, the targets move more than the model allows; below it, less
-(its process noise is too large, and its estimates wider than they need be). Until then every estimate is the EKF's, bit for bit: a mission whose targets move as
-the model says runs as if the adaptive estimator were absent.
+(its process noise is too large, and its estimates wider than they need be). Until then every
+estimate is the EKF's, bit for bit: a mission whose targets move as the model says runs as if
+the adaptive estimator were absent.
 
 The switch is one-way and team-wide (one :class:`Evidence` shared by every copy of the
 estimator); estimates made before it enter the adaptive estimator with every noise level at

@@ -3,26 +3,27 @@
 The paper holds every sensing zone's keep-out row (eq. 7c) at one risk level ε1 and every comm
 zone's (eq. 7d) at ε2, whatever the failure would cost. This guard scales each row's level by
 the expected cost of the failure its zone would cause to the robots of the league near it,
-relative to the cost the paper's levels are set for — losing one of ``M`` equally useful
-sensors for the whole mission::
+relative to the cost the paper's levels are set for — the permanent loss of one of ``M``
+equally useful sensors::
 
-    ρ_il = φ_l · (M · v_i) · D_il / T        ε_il = clip(ε / ρ_il, ε / ρ_max, ε_max)
+    ρ_il = φ_l · max(1, M · v_i) · D_l        ε_il = clip(ε / ρ_il, ε / ρ_max, ε_max)
 
 * ``φ_l``: what the failure takes: 1 for a failure, ``degrade_fraction`` for a zone whose
   attacks the team felt as a degradation (the capability still works, worse);
-* ``v_i``: what the capability of robot ``i`` adds to the team's tracking, the mean of its
+* ``v_i``: what the capability of robot ``i`` adds to the team's tracking, the larger of its
   share of the working sensors' measurement information now (``Hᵀ R⁻¹ H`` at the estimated
-  target positions) and of an equal share ``1/s`` of the ``s`` working sensors, so that the
-  last working sensor is worth the whole mission; a sensor already lost for good is worth
-  nothing more, and so is a radio whose robot no longer senses;
-* ``D_il``: how long the failure lasts: the rest of the mission for a permanent one; for a
-  temporary one (and for jamming, eq. 7d), the mean length of the temporary failures of that
-  kind the team has seen, starting from ``temporary_steps``;
-* ``T``: the mission's length (the team's ``mission_steps``, else ``horizon``).
+  target positions) and an equal share ``1/s`` of the ``s`` sensors not lost for good: the last
+  working sensor is worth the whole team's; a sensor lost for good is worth nothing more, and
+  so is a radio already lost. A robot is never priced below an equal share (``max(1, ·)``):
+  what a sensor adds now says little about what it would add later;
+* ``D_l``: the share of the mission the failure lasts: 1 for a permanent one; for a temporary
+  one (and for jamming, eq. 7d), the mean length of the temporary failures of that kind the
+  team has seen (starting from ``temporary_steps``) over the mission's length ``T`` (the team's
+  ``mission_steps``, else ``horizon``).
 
 A league's row takes the highest cost of the robots near its zone (within ``reach`` of the
-keep-out disc), since one row holds for the whole league. With ``ρ = 1`` everywhere the levels
-are the paper's.
+keep-out disc), since one row holds for the whole league. With ``ρ = 1`` — equal sensors, a
+permanent failure — the levels are the paper's.
 """
 
 from __future__ import annotations
@@ -138,8 +139,8 @@ class PricedCautionGuard(Guard):
     # ------------------------------------------------------------------ the cost
 
     def sensor_values(self, estimate: TargetEstimate, obs: TeamObservation) -> np.ndarray:
-        """``v_i`` of every robot's sensor: the mean of its information share and ``1/s``; 0
-        for a sensor lost for good."""
+        """``v_i`` of every robot's sensor: the larger of its information share and ``1/s``;
+        0 for a sensor lost for good."""
         working = np.array([p != "permanent" for p in obs.sensing_persistence])
         s = int(working.sum())
         if s == 0:
@@ -151,17 +152,17 @@ class PricedCautionGuard(Guard):
         amount = (info[..., 0] + info[..., 2]).sum(axis=1) * working
         total = float(amount.sum())
         share = amount / total if total > 0 else working / s
-        return np.where(working, 0.5 * (share + 1.0 / s), 0.0)
+        return np.where(working, np.maximum(share, 1.0 / s), 0.0)
 
-    def cost_ratio(
-        self, zone: ZoneEstimate, kind: str, persistent: bool, value: float, step: int
-    ) -> float:
+    def cost_ratio(self, zone: ZoneEstimate, kind: str, persistent: bool, value: float) -> float:
         """``ρ`` of a failure of ``kind`` from ``zone`` to a robot whose capability is worth
         ``value``; ``persistent``: the failure lasts the rest of the mission."""
         horizon = self.config.mission_steps or self.params.horizon
-        duration = max(horizon - step, 1) if persistent else self.temporary_length(kind)
+        lasts = 1.0 if persistent else min(self.temporary_length(kind) / horizon, 1.0)
         share = self.params.degrade_fraction if zone.zone_id in self._degrading else 1.0
-        return share * self.config.n_robots * value * duration / horizon
+        if value <= 0:
+            return 0.0
+        return share * max(1.0, self.config.n_robots * value) * lasts
 
     def price_rows(
         self,
@@ -192,9 +193,7 @@ class PricedCautionGuard(Guard):
                     continue
                 persistent = zone.persistence == "permanent" and not jamming
                 ratio = max(
-                    self.cost_ratio(
-                        zone, zone.kind, persistent, self._value(i, zone, values, obs), obs.step
-                    )
+                    self.cost_ratio(zone, zone.kind, persistent, self._value(i, zone, values, obs))
                     for i in near
                 )
                 eps = float(risk_of(table[r, width.BETA]))
