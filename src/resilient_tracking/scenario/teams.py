@@ -104,9 +104,10 @@ TEAMS: dict[str, NamedTeam] = {
         ),
         NamedTeam(
             "priced",
-            "the default team with each zone's risk level priced by what its failure would"
-            " cost (the last sensors' guard folded in)",
-            {"guards.priced.enabled": True, "guards.last_sensors.enabled": False},
+            "the adversarial team with each zone's risk level priced by what its failure"
+            " would cost (the last sensors' guard folded in); the best team measured on every"
+            " suite",
+            _ADVERSARIAL | {"guards.priced.enabled": True, "guards.last_sensors.enabled": False},
         ),
         NamedTeam(
             "vanilla",

@@ -16,10 +16,11 @@ equally useful sensors::
   working sensor is worth the whole team's; a sensor lost for good is worth nothing more, and
   so is a radio already lost. A robot is never priced below an equal share (``max(1, ·)``):
   what a sensor adds now says little about what it would add later;
-* ``D_l``: the share of the mission the failure lasts: 1 for a permanent one; for a temporary
-  one (and for jamming, eq. 7d), the mean length of the temporary failures of that kind the
-  team has seen (starting from ``temporary_steps``) over the mission's length ``T`` (the team's
-  ``mission_steps``, else ``horizon``).
+* ``D_l``: the share of the mission the failure lasts: 1 for a zone not known to be temporary
+  (its eq. 7d rows also keep a league off a permanent comm zone's hazard); for a temporary one,
+  the mean length of the temporary failures of that kind the team has seen (starting from
+  ``temporary_steps``) over the mission's length ``T`` (the team's ``mission_steps``, else
+  ``horizon``).
 
 A league's row takes the highest cost of the robots near its zone (within ``reach`` of the
 keep-out disc), since one row holds for the whole league. With ``ρ = 1`` — equal sensors, a
@@ -191,7 +192,9 @@ class PricedCautionGuard(Guard):
                 ]
                 if not near:
                     continue
-                persistent = zone.persistence == "permanent" and not jamming
+                # a zone not known to be temporary is priced as permanent: a league's eq. 7d
+                # rows also keep it off a permanent comm zone's hazard
+                persistent = zone.persistence != "temporary"
                 ratio = max(
                     self.cost_ratio(zone, zone.kind, persistent, self._value(i, zone, values, obs))
                     for i in near
