@@ -80,7 +80,7 @@ BASELINES = ("vanilla", "paper")
 _ON_EVIDENCE = {"estimator.type": "adaptive", "estimator.on_evidence": True}
 CANDIDATES: dict[str, dict[str, Any]] = {
     "evidence": _ON_EVIDENCE,
-    "adaptive-priced": dict(team_arm("adversarial").overrides) | dict(team_arm("priced").overrides),
+    "priced": dict(team_arm("priced").overrides),
 }
 
 
