@@ -183,3 +183,13 @@ def test_the_priced_team_runs_and_differs_from_the_default_where_zones_are_met()
     priced = run_episode(s.with_team("priced"), seed=1)
     assert np.all(np.isfinite(priced["team"]["trace"]))
     assert not default["robots"].equals(priced["robots"])
+
+
+def test_without_the_information_share_a_robot_is_worth_the_redundancy_left():
+    g = guard(reach=0.5, information_share=False)
+    far_targets = TargetEstimate.initial(np.array([[5.0, 0.0, 0.0, 0.0]]), 0.1, 0.1)
+    np.testing.assert_allclose(g.sensor_values(far_targets, observation()), [1 / 3] * 3)
+    lost = ("permanent", "", "")
+    np.testing.assert_allclose(
+        g.sensor_values(far_targets, observation(sensing=lost)), [0, 0.5, 0.5]
+    )

@@ -81,6 +81,8 @@ _ON_EVIDENCE = {"estimator.type": "adaptive", "estimator.on_evidence": True}
 CANDIDATES: dict[str, dict[str, Any]] = {
     "evidence": _ON_EVIDENCE,
     "priced": dict(team_arm("priced").overrides),
+    "priced-redundancy": dict(team_arm("priced").overrides)
+    | {"guards.priced.information_share": False},
 }
 
 

@@ -86,6 +86,13 @@ class PricedCautionParams(GuardParams):
         lt=0.5,
         description="ε_max: the loosest level a cheap failure gets.",
     )
+    information_share: bool = Field(
+        True,
+        description=(
+            "Whether a robot's value counts its share of the measurement information now "
+            "(else only the redundancy left, 1/s)."
+        ),
+    )
     reach: Length = Field(
         1.0,
         description="A robot within this distance of a zone's keep-out disc prices its row.",
@@ -153,6 +160,8 @@ class PricedCautionGuard(Guard):
         amount = (info[..., 0] + info[..., 2]).sum(axis=1) * working
         total = float(amount.sum())
         share = amount / total if total > 0 else working / s
+        if not self.params.information_share:
+            share = np.zeros_like(share)
         return np.where(working, np.maximum(share, 1.0 / s), 0.0)
 
     def cost_ratio(self, zone: ZoneEstimate, kind: str, persistent: bool, value: float) -> float:
