@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.stats import chi2
-from tests.helpers import shipped
 
+from helpers import shipped
 from resilient_tracking.belief.on_evidence import AdaptiveOnEvidence, Evidence
 from resilient_tracking.build import make_estimator
 from resilient_tracking.scenario.overrides import overridden

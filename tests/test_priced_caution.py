@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.helpers import shipped
 
+from helpers import shipped
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.build import team_config
