@@ -10,7 +10,7 @@ from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.build import team_config
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
-from resilient_tracking.planning.adaptation import chance_margin
+from resilient_tracking.planning.adaptation import chance_margin, risk_level
 from resilient_tracking.planning.layout import (
     CommRow,
     SensingRow,
@@ -21,7 +21,7 @@ from resilient_tracking.planning.layout import (
 )
 from resilient_tracking.policies.guards import GuardsSpec
 from resilient_tracking.policies.guards.base import LeagueRows
-from resilient_tracking.policies.guards.priced import PricedCautionGuard, risk_of
+from resilient_tracking.policies.guards.priced import PricedCautionGuard
 
 EPS1, EPS2 = 0.02, 0.15
 #: three robots on a circle around one target: each sensor's information share is equal
@@ -88,14 +88,14 @@ def priced_levels(g, zones, obs, discs=()) -> tuple[list[float], list[float]]:
     estimate = TargetEstimate.initial(TARGETS, 0.1, 0.1)
     g.price_rows(rows, [0, 1, 2], estimate, knowledge, obs)
     return (
-        list(risk_of(rows.sensing[:, SensingRow.BETA])),
-        list(risk_of(rows.comm[:, CommRow.BETA])),
+        list(risk_level(rows.sensing[:, SensingRow.BETA])),
+        list(risk_level(rows.comm[:, CommRow.BETA])),
     )
 
 
 def test_the_risk_level_is_recovered_from_its_margin():
     for eps in (0.001, 0.02, 0.15, 0.45):
-        assert risk_of(np.array(chance_margin(eps))) == pytest.approx(eps, rel=1e-9)
+        assert risk_level(np.array(chance_margin(eps))) == pytest.approx(eps, rel=1e-9)
 
 
 def test_a_permanent_failure_of_one_of_equal_sensors_at_the_start_keeps_the_papers_level():
@@ -122,7 +122,7 @@ def test_a_robot_that_adds_more_than_an_equal_share_is_priced_above_it():
     values = g.sensor_values(far_targets, observation())
     best = int(np.argmax(values))
     assert values[best] > 1 / 3
-    ratio = g.cost_ratio(zone(robot=best), "sensing", True, float(values[best]))
+    ratio = g.cost_ratio(zone(robot=best), True, float(values[best]))
     assert ratio == pytest.approx(3 * values[best])
 
 

@@ -41,7 +41,7 @@ from resilient_tracking.experiments.generator import (
     stored_beyond_suite,
     stored_suite,
 )
-from resilient_tracking.experiments.paired import paired_outcome
+from resilient_tracking.experiments.paired import scenario_outcomes
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
@@ -182,22 +182,13 @@ def oracle_rows(runs: pd.DataFrame, metric: str) -> pd.DataFrame:
     return picked
 
 
-def outcomes(runs: pd.DataFrame, metric: str, mine: str, theirs: str) -> dict[str, int]:
-    """Scenarios won, tied and lost by ``mine`` against ``theirs`` (paired seeds)."""
-    wide = runs.pivot_table(index=["tag_scenario", "seed"], columns="tag_arm", values=metric)
-    counts = {"win": 0, "tie": 0, "loss": 0, "short": 0}
-    if mine not in wide or theirs not in wide:
-        return counts
-    diff = (wide[mine] - wide[theirs]).dropna()
-    for _, d in diff.groupby(level=0):
-        counts[paired_outcome(d.to_numpy())] += 1
-    return counts
-
-
-def _share(c: dict[str, int]) -> str:
-    decided = c["win"] + c["loss"]
-    rate = f"{c['win'] / decided:.0%}" if decided else "–"
-    return f"{c['win']}/{c['tie']}/{c['loss']} ({rate})"
+def _share(runs: pd.DataFrame, metric: str, mine: str, theirs: str) -> str:
+    """Scenarios won/tied/lost by ``mine`` against ``theirs`` (paired seeds), with the share
+    won of those decided."""
+    c, _ = scenario_outcomes(runs, metric, mine, theirs, arm="tag_arm")
+    decided = c.wins + c.losses
+    rate = f"{c.wins / decided:.0%}" if decided else "–"
+    return f"{c.wins}/{c.ties}/{c.losses} ({rate})"
 
 
 def complete(runs: pd.DataFrame) -> pd.DataFrame:
@@ -254,7 +245,7 @@ def report(runs: pd.DataFrame) -> str:
                 else:
                     both = rows
                 n = both[both["tag_arm"] == team]["tag_scenario"].nunique()
-                cells = [_share(outcomes(both, metric, team, theirs)) for theirs in BASELINES]
+                cells = [_share(both, metric, team, theirs) for theirs in BASELINES]
                 above = _above(both, team, "paper") if metric == "mse" else ""
                 lines.append(
                     f"| {suite} | {metric.upper()} | {team} | {n} | "

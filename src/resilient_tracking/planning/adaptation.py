@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import erfinv
+from scipy.special import erf, erfinv
 
 
 def adaptive_weights(
@@ -20,3 +20,8 @@ def adaptive_weights(
 def chance_margin(eps: float) -> float:
     """``erfinv(1 − 2ε)``: the number of (√2-scaled) standard deviations kept at risk ``ε``."""
     return float(erfinv(1.0 - 2.0 * eps))
+
+
+def risk_level(beta: np.ndarray | float) -> np.ndarray:
+    """The risk level ``ε`` whose margin is ``β`` (the inverse of :func:`chance_margin`)."""
+    return np.asarray((1.0 - erf(beta)) / 2.0)

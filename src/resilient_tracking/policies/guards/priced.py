@@ -34,12 +34,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from pydantic import Field
-from scipy.special import erf
 
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.belief.knowledge import KnowledgeBase, ZoneEstimate
 from resilient_tracking.observation import TeamObservation
-from resilient_tracking.planning.adaptation import chance_margin
+from resilient_tracking.planning.adaptation import chance_margin, risk_level
 from resilient_tracking.planning.layout import CommRow, SensingRow
 from resilient_tracking.policies.guards.base import Guard, GuardParams, LeagueRows, register_guard
 from resilient_tracking.spec import MAX_STEP_COUNT, Length
@@ -100,11 +99,6 @@ class PricedCautionParams(GuardParams):
     )
 
 
-def risk_of(beta: np.ndarray) -> np.ndarray:
-    """The risk level ``ε`` whose margin is ``β = erfinv(1 − 2ε)``."""
-    return (1.0 - erf(beta)) / 2.0
-
-
 @register_guard("priced")
 class PricedCautionGuard(Guard):
     """Each zone row's risk level scaled by the expected cost of its failure (module
@@ -153,25 +147,25 @@ class PricedCautionGuard(Guard):
         s = int(working.sum())
         if s == 0:
             return np.zeros(obs.n_robots)
-        targets = estimate.mean[:, :2]
-        info = self.config.sensor.information(
-            obs.positions[:, None, :], targets[None, :, :]
-        )  # (M, N, 3): xx, xy, yy
-        amount = (info[..., 0] + info[..., 2]).sum(axis=1) * working
-        total = float(amount.sum())
-        share = amount / total if total > 0 else working / s
-        if not self.params.information_share:
-            share = np.zeros_like(share)
+        share = np.zeros(obs.n_robots)
+        if self.params.information_share:
+            info = self.config.sensor.information(
+                obs.positions[:, None, :], estimate.mean[None, :, :2]
+            )  # (M, N, 3): xx, xy, yy
+            amount = (info[..., 0] + info[..., 2]).sum(axis=1) * working
+            total = float(amount.sum())
+            if total > 0:
+                share = amount / total
         return np.where(working, np.maximum(share, 1.0 / s), 0.0)
 
-    def cost_ratio(self, zone: ZoneEstimate, kind: str, persistent: bool, value: float) -> float:
-        """``ρ`` of a failure of ``kind`` from ``zone`` to a robot whose capability is worth
-        ``value``; ``persistent``: the failure lasts the rest of the mission."""
-        horizon = self.config.mission_steps or self.params.horizon
-        lasts = 1.0 if persistent else min(self.temporary_length(kind) / horizon, 1.0)
-        share = self.params.degrade_fraction if zone.zone_id in self._degrading else 1.0
+    def cost_ratio(self, zone: ZoneEstimate, persistent: bool, value: float) -> float:
+        """``ρ`` of a failure from ``zone`` to a robot whose capability is worth ``value``;
+        ``persistent``: the failure lasts the rest of the mission."""
         if value <= 0:
             return 0.0
+        horizon = self.config.mission_steps or self.params.horizon
+        lasts = 1.0 if persistent else min(self.temporary_length(zone.kind) / horizon, 1.0)
+        share = self.params.degrade_fraction if zone.zone_id in self._degrading else 1.0
         return share * max(1.0, self.config.n_robots * value) * lasts
 
     def price_rows(
@@ -184,7 +178,7 @@ class PricedCautionGuard(Guard):
     ) -> None:
         """Scale each row's level by the highest cost ratio of the league's robots near it."""
         values = self.sensor_values(estimate, obs)
-        for table, keys, width, jamming in (
+        for table, keys, width, links in (
             (rows.sensing, rows.sensing_keys, SensingRow, False),
             (rows.comm, rows.comm_keys, CommRow, True),
         ):
@@ -192,26 +186,26 @@ class PricedCautionGuard(Guard):
                 zone = knowledge.zones.get(key)
                 if zone is None:
                     continue
-                radius = float(table[r, SensingRow.R_SAFE]) if not jamming else zone.size
-                near = [
-                    i
-                    for i in robots
-                    if np.linalg.norm(obs.positions[i] - zone.mean) <= radius + self.params.reach
-                    or jamming
-                ]
+                if links:  # an eq. 7d row concerns every link of the league
+                    near = robots
+                else:
+                    reach = float(table[r, SensingRow.R_SAFE]) + self.params.reach
+                    distance = np.linalg.norm(obs.positions[robots] - zone.mean, axis=1)
+                    near = [i for i, d in zip(robots, distance, strict=True) if d <= reach]
                 if not near:
                     continue
                 # a zone not known to be temporary is priced as permanent: a league's eq. 7d
                 # rows also keep it off a permanent comm zone's hazard
                 persistent = zone.persistence != "temporary"
                 ratio = max(
-                    self.cost_ratio(zone, zone.kind, persistent, self._value(i, zone, values, obs))
+                    self.cost_ratio(zone, persistent, self._value(i, zone, values, obs))
                     for i in near
                 )
-                eps = float(risk_of(table[r, width.BETA]))
-                eps = min(
-                    max(eps / max(ratio, 1e-12), eps / self.params.max_ratio), self.params.max_risk
-                )
+                eps = float(risk_level(table[r, width.BETA]))
+                if ratio <= 0:  # nothing left to lose
+                    eps = self.params.max_risk
+                else:
+                    eps = min(max(eps / ratio, eps / self.params.max_ratio), self.params.max_risk)
                 table[r, width.BETA] = chance_margin(eps)
 
     def _value(
