@@ -22,6 +22,7 @@ from resilient_tracking.planning.layout import (
 from resilient_tracking.policies.guards import GuardsSpec
 from resilient_tracking.policies.guards.base import LeagueRows
 from resilient_tracking.policies.guards.priced import PricedCautionGuard
+from resilient_tracking.scenario.overrides import overridden
 
 EPS1, EPS2 = 0.02, 0.15
 #: three robots on a circle around one target: each sensor's information share is equal
@@ -175,14 +176,15 @@ def test_a_comm_zones_hazard_costs_the_tracking_of_the_radio_it_destroys():
     assert gone == pytest.approx(0.45)  # no radio left to lose
 
 
-def test_the_priced_team_runs_and_differs_from_the_default_where_zones_are_met():
+def test_the_default_team_prices_caution_and_moves_otherwise_than_the_fixed_levels():
     from resilient_tracking.sim.episode import run_episode
 
     s = shipped("sensing-temp").with_overrides(steps=120)
-    default = run_episode(s, seed=1)
-    priced = run_episode(s.with_team("priced"), seed=1)
+    adaptive = {"estimator.type": "adaptive"}  # the same estimator, to see the guard alone
+    fixed = run_episode(overridden(s.with_team("route"), adaptive), seed=1)
+    priced = run_episode(s, seed=1)
     assert np.all(np.isfinite(priced["team"]["trace"]))
-    assert not default["robots"].equals(priced["robots"])
+    assert not fixed["robots"].equals(priced["robots"])
 
 
 def test_without_the_information_share_a_robot_is_worth_the_redundancy_left():

@@ -253,14 +253,12 @@ def test_adversarial_experiment_runs_three_teams_on_each_scenario_and_the_guard_
         lures = scenario in [s for s, _ in cases[: len(ADVERSARIAL)]] and scenario.name.startswith(
             "lure"
         )
-        assert set(teams) == {"vanilla", "default", "adversarial"} | (
-            {"guarded"} if lures else set()
-        )
-        assert teams["vanilla"].policy == "vanilla" and not teams["default"].overrides
-        extended = arms[teams["adversarial"].label]
-        assert extended.estimator.type == "adaptive"
-        assert "lure" not in extended.guards.enabled()
-        assert scenario.estimator.type == "ekf"
+        assert set(teams) == {"vanilla", "route", "default"} | ({"guarded"} if lures else set())
+        assert teams["vanilla"].policy == "vanilla"
+        assert arms[teams["route"].label].estimator.type == "ekf"
+        on_trial = arms[teams["default"].label]
+        assert on_trial.estimator.type == "adaptive"
+        assert "lure" not in on_trial.guards.enabled()
         if lures:
             guarded = arms[teams["guarded"].label]
             assert guarded.estimator.type == "adaptive"
@@ -286,21 +284,21 @@ def test_adversarial_figures_are_bands_per_scenario_of_its_teams(tmp_path):
     teams = bands["bands-lure-comm.png"].args[0]
     assert set(teams) == {
         "lure-comm-vanilla",
+        "lure-comm-route",
         "lure-comm-default",
-        "lure-comm-adversarial",
         "lure-comm-guarded",
     }
 
 
 def test_adversarial_targets_are_won_tied_or_lost_by_the_paired_interval():
     exp = catalog()["adversarial"]
-    teams = ["vanilla", "default", "adversarial", "guarded"] * 2
+    teams = ["vanilla", "route", "default", "guarded"] * 2
     rows = _summary(
         tag_scenario=["lure-comm"] * 8,
         tag_team=teams,
         seed=[1] * 4 + [2] * 4,
-        # adversarial below the default team in both seeds (won); against vanilla −1 then +1
-        mse=[2.0, 2.0, 1.0, 2.75, 1.0, 3.0, 2.0, 2.75],  # guarded 1.1× the default team's
+        # the default team below the route team in both seeds (won); against vanilla −1 then +1
+        mse=[2.0, 2.0, 1.0, 1.65, 1.0, 3.0, 2.0, 1.65],  # guarded 1.1× the default team's
         nll=[1.0, 2.0, 1.5, 1.5, 1.0, 2.0, 1.5, 1.5],  # above vanilla in both seeds (lost)
         losses_known_permanent=[0] * 8,
         losses_unknown_permanent=[2, 2, 2, 1, 2, 2, 2, 0],  # guarded: 0.5 vs 2 per run
@@ -308,39 +306,39 @@ def test_adversarial_targets_are_won_tied_or_lost_by_the_paired_interval():
     claims = check(exp, rows)
     verdict = {c.statement: ("tie" if c.tie else c.holds) for c in claims}
     assert verdict == {
-        "lure-comm: the adversarial team has a lower MSE than the default team": True,
-        "lure-comm: the adversarial team has a lower NLL than the default team": True,
-        "lure-comm: the adversarial team has a lower MSE than vanilla": "tie",
-        "lure-comm: the adversarial team has a lower NLL than vanilla": False,
+        "lure-comm: the default team has a lower MSE than the route team": True,
+        "lure-comm: the default team has a lower NLL than the route team": True,
+        "lure-comm: the default team has a lower MSE than vanilla": "tie",
+        "lure-comm: the default team has a lower NLL than vanilla": False,
         "lure-comm: with the lure guard, permanent losses per run at most 50% of the default "
         "team's, at an MSE at most 1.2× its": True,
     }
     assert claims[0].evidence.startswith("win: ") and "lower in 2/2 seeds" in claims[0].evidence
 
 
-def test_adversarial_suite_targets_count_the_scenarios_the_extended_team_loses():
+def test_adversarial_suite_targets_count_the_scenarios_the_default_team_loses():
     exp = catalog()["adversarial"]
-    teams = ["vanilla", "default", "adversarial"]
-    # g00: extended below both in both seeds; g01: above the default team in both, below vanilla
+    teams = ["vanilla", "route", "default"]
+    # g00: default below both in both seeds; g01: above the route team in both, below vanilla
     rows = _summary(
         tag_scenario=["g00"] * 6 + ["g01"] * 6,
         tag_part=["suite"] * 12,
         tag_team=teams * 4,
         seed=[1, 1, 1, 2, 2, 2] * 2,
         mse=[3.0, 2.0, 1.0] * 2 + [3.0, 1.0, 2.0] * 2,
-        nll=[1.0, 2.0, 0.5] * 4,  # extended lowest in both
+        nll=[1.0, 2.0, 0.5] * 4,  # the default team lowest in both
         losses_known_permanent=[0] * 12,
         losses_unknown_permanent=[0] * 12,
     )
     holds = {c.statement: c.holds for c in check(exp, rows)}
     assert holds == {
-        "adversarial suite: the adversarial team loses to the default team in MSE in at most "
+        "adversarial suite: the default team loses to the route team in MSE in at most "
         "15% of the scenarios (ties apart)": False,  # 1 of 2
-        "adversarial suite: the adversarial team loses to the default team in NLL in at most "
+        "adversarial suite: the default team loses to the route team in NLL in at most "
         "15% of the scenarios (ties apart)": True,
-        "adversarial suite: the adversarial team loses to vanilla in MSE in at most 15% of the "
+        "adversarial suite: the default team loses to vanilla in MSE in at most 15% of the "
         "scenarios (ties apart)": True,
-        "adversarial suite: the adversarial team loses to vanilla in NLL in at most 15% of the "
+        "adversarial suite: the default team loses to vanilla in NLL in at most 15% of the "
         "scenarios (ties apart)": True,
     }
 

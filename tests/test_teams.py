@@ -26,12 +26,26 @@ def test_every_team_is_selectable_from_a_scenario_file_and_sets_what_it_says(tea
     data = _data() | {"team": team}
     scenario = Scenario.parse(data, "sensing-temp.yaml")
     assert scenario.team == team
-    dumped = scenario.model_dump()
     for path, value in get_team(team).settings.items():
-        node = dumped
+        node = scenario
         for key in path.split("."):
-            node = node[key]
+            node = node[key] if isinstance(node, dict) else getattr(node, key)
         assert node == value, path
+
+
+def test_every_team_fixes_every_setting_the_default_team_changes():
+    # so that a team is the same whichever team the scenario it runs on names
+    changed = set(get_team(DEFAULT_TEAM).settings)
+    for team in TEAMS.values():
+        assert changed <= set(team.settings), team.name
+
+
+def test_the_default_team_prices_caution_with_the_adaptive_estimator_and_route_does_not():
+    default = Scenario.parse(_data())
+    route = Scenario.parse(_data() | {"team": "route"})
+    assert default.estimator.type == "adaptive" and route.estimator.type == "ekf"
+    assert default.guards.priced["enabled"] and not route.guards.priced["enabled"]
+    assert route.guards.last_sensors["enabled"] and not default.guards.last_sensors["enabled"]
 
 
 def test_the_paper_team_is_the_one_step_program_without_the_guards():

@@ -1,13 +1,14 @@
 """Headroom of caution: per scenario, the best of a grid of fixed caution settings chosen in
 hindsight (a reference, not a team), against vanilla and the paper's team.
 
-The grid varies one thing of the default team at a time: each zone kind's risk level (the
-paper's value, ×0.2, ×5, or ×3 for ε2, whose ×5 is not a probability below ½), no avoidance of
-that kind (zero slack weights), and each bundle of extensions (teams ``beyond`` and
-``adversarial``). Scenarios: the three stored suites on seeds 1–2, and the shipped scenarios of
-the paper, the beyond and the adversarial experiments on seeds 1–4. Runs are stored under
-``OUT/runs`` like ``rtrack reproduce``'s (the reproduction's own runs are reused), so an
-interrupted measurement resumes::
+The grid varies one thing of the team ``route`` (the paper's method at its fixed risk levels)
+at a time: each zone kind's risk level (the paper's value, ×0.2, ×5, or ×3 for ε2, whose ×5 is
+not a probability below ½), no avoidance of that kind (zero slack weights), and each bundle of
+extensions (the beyond team's mechanisms, the adaptive estimator). The default team, which
+prices caution, is measured beside it. Scenarios: the three stored suites on seeds 1–2, and
+the shipped scenarios of the paper, the beyond and the adversarial experiments on seeds 1–4.
+Runs are stored under ``OUT/runs`` like ``rtrack reproduce``'s (the reproduction's own runs
+are reused), so an interrupted measurement resumes::
 
     python tools/headroom.py --out docs/results --jobs 2
 
@@ -47,6 +48,7 @@ from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
 from resilient_tracking.policies.failure_aware_params import FailureAwareParams
 from resilient_tracking.runs.reading import load_run
 from resilient_tracking.scenario import Scenario
+from resilient_tracking.scenario.teams import get_team
 
 log = logging.getLogger("headroom")
 
@@ -62,27 +64,34 @@ def _no_slack(kind: str) -> dict[str, Any]:
     }
 
 
-#: The caution grid: label → settings over the default team, by dotted path.
+_ROUTE = {"team": "route"}
+#: What the beyond team adds to the default team's settings.
+_BEYOND = {
+    path: value
+    for path, value in get_team("beyond").settings.items()
+    if path not in get_team("default").settings
+}
+
+#: The caution grid: label → settings over the team ``route``, by dotted path.
 GRID: dict[str, dict[str, Any]] = {
-    "default": {},
-    "eps1-x0.2": {"policy.failure_aware.eps1": 0.004},
-    "eps1-x5": {"policy.failure_aware.eps1": 0.1},
-    "sensing-off": _no_slack("sensing"),
-    "eps2-x0.2": {"policy.failure_aware.eps2": 0.03},
-    "eps2-x3": {"policy.failure_aware.eps2": 0.45},
-    "comm-off": _no_slack("comm") | {"guards.comm_hazard.enabled": False},
-    "beyond": dict(team_arm("beyond").overrides),
-    "adversarial": dict(team_arm("adversarial").overrides),
+    "route": _ROUTE,
+    "eps1-x0.2": _ROUTE | {"policy.failure_aware.eps1": 0.004},
+    "eps1-x5": _ROUTE | {"policy.failure_aware.eps1": 0.1},
+    "sensing-off": _ROUTE | _no_slack("sensing"),
+    "eps2-x0.2": _ROUTE | {"policy.failure_aware.eps2": 0.03},
+    "eps2-x3": _ROUTE | {"policy.failure_aware.eps2": 0.45},
+    "comm-off": _ROUTE | _no_slack("comm") | {"guards.comm_hazard.enabled": False},
+    "beyond-route": _ROUTE | _BEYOND,
+    "adaptive": _ROUTE | {"estimator.type": "adaptive"},
 }
 #: The references every oracle is measured against.
 BASELINES = ("vanilla", "paper")
-#: Teams measured beside the oracle: label → settings over the default team.
-_ON_EVIDENCE = {"estimator.type": "adaptive", "estimator.on_evidence": True}
+#: Teams measured beside the oracle: label → settings.
 CANDIDATES: dict[str, dict[str, Any]] = {
-    "evidence": _ON_EVIDENCE,
-    "priced": dict(team_arm("priced").overrides),
-    "priced-redundancy": dict(team_arm("priced").overrides)
-    | {"guards.priced.information_share": False},
+    "default": {"team": "default"},
+    "evidence": _ROUTE | {"estimator.type": "adaptive", "estimator.on_evidence": True},
+    "default-redundancy": {"team": "default", "guards.priced.information_share": False},
+    "beyond": {"team": "beyond"},
 }
 
 
@@ -213,7 +222,7 @@ def report(runs: pd.DataFrame) -> str:
     """The markdown: per suite and metric, the oracle's and each team's outcomes against
     vanilla and the paper's team, which grid arm the oracle picked, and the losses."""
     teams = [
-        t for t in ("oracle", "default", *CANDIDATES) if t == "oracle" or t in set(runs["tag_arm"])
+        t for t in ("oracle", "route", *CANDIDATES) if t == "oracle" or t in set(runs["tag_arm"])
     ]
     lines = [
         "# Headroom of caution: the best fixed setting per scenario, in hindsight",

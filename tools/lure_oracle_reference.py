@@ -34,7 +34,6 @@ from resilient_tracking.policies.guards.lure import LureGuard
 from resilient_tracking.policies.guards.suspects import SuspectWatch
 from resilient_tracking.scenario import load_scenario
 from resilient_tracking.scenario.overrides import overridden
-from resilient_tracking.scenario.teams import get_team
 from resilient_tracking.sim.episode import EpisodeStepper
 from resilient_tracking.world import World
 
@@ -80,7 +79,8 @@ def run(
     name: str, seed: int, oracle: str, standoff: float | None, latency: float = 0.0
 ) -> dict[str, float]:
     """One episode; its mean trace, MSE and permanent losses."""
-    settings: dict[str, Any] = dict(get_team("adversarial").settings)
+    # the paper's method on the route program with the adaptive estimator
+    settings: dict[str, Any] = {"team": "route", "estimator.type": "adaptive"}
     if standoff is not None:
         settings |= {GUARD: True, STANDOFF: standoff}
     scenario = overridden(load_scenario(builtin_scenarios.resolve(name)), settings)

@@ -109,8 +109,8 @@ class Task:
 
 
 def team_arm(team: str, label: str | None = None, **tags: Any) -> Variant:
-    """The arm of the named team ``team``: its policy and its settings (which override the
-    scenario's, as the catalogue's arms always do), labelled ``label`` (default: the team)."""
-    settings = dict(get_team(team).settings)
-    policy = settings.pop("policy.name", "failure_aware")
-    return Variant(label or team, policy, settings, tags={"team": team, **tags})
+    """The arm of the named team ``team``: its policy, and the team filling in every setting
+    the scenario leaves unsaid (as ``team:`` in a scenario file does), labelled ``label``
+    (default: the team)."""
+    policy = get_team(team).settings.get("policy.name", "failure_aware")
+    return Variant(label or team, policy, {"team": team}, tags={"team": team, **tags})

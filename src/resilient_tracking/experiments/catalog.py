@@ -134,18 +134,22 @@ def generalization_cases(
     out = []
     for scenario in picked:
         arms: list[tuple[str, str, dict[str, Any]]] = [
-            ("failure_aware", "failure_aware", {}),
-            ("vanilla", "vanilla", {}),
-            ("failure_aware-nozone", "failure_aware", {"zones": []}),
+            ("failure_aware", "failure_aware", {"team": "default"}),
+            ("vanilla", "vanilla", {"team": "vanilla"}),
+            ("failure_aware-nozone", "failure_aware", {"team": "default", "zones": []}),
         ]
         if _sensing_only(scenario):
-            arms.append(("sog", "sog", {}))
+            arms.append(("sog", "sog", {"team": "sog"}))
         variants = tuple(
             Variant(
                 f"{scenario.name}-{label}",
                 policy,
                 overrides,
-                tags={"scenario": scenario.name, "method": policy, "no_zones": bool(overrides)},
+                tags={
+                    "scenario": scenario.name,
+                    "method": policy,
+                    "no_zones": "zones" in overrides,
+                },
             )
             for label, policy, overrides in arms
         )
@@ -156,6 +160,10 @@ def generalization_cases(
 #: The shipped scenarios with targets that evade or lure (docs/model.md §1).
 ADVERSARIAL = ("evasive-open", "evasive-zones", "lure-sensing", "lure-comm")
 
+
+#: The teams of the ``adversarial`` experiment: vanilla, the paper's method on the route program
+#: with the EKF, and the default team, whose adaptive estimator is on trial (docs/model.md §4.2).
+ADVERSARIAL_TEAMS = ("vanilla", "route", "default")
 
 #: Scenarios of the stored adversarial suite in the ``adversarial`` experiment, and the seeds of
 #: each (its first ones).
@@ -173,13 +181,13 @@ def adversarial_cases(
     """The shipped adversarial scenarios (tagged ``part: shipped``), then the first
     ``suite_size`` scenarios of the stored adversarial suite (of those with at most
     ``max_pairs`` robot-target pairs, if given; tagged ``part: suite``, on their first
-    ``suite_seeds`` seeds), each with three arms: the teams ``vanilla``, ``default`` and
-    ``adversarial`` (the adaptive estimator); a shipped scenario whose targets lure has a
-    fourth, the team ``guarded`` (with the lure guard). Arms are tagged with the scenario and
-    the team."""
+    ``suite_seeds`` seeds), each with three arms: the teams ``vanilla``, ``route`` (the
+    paper's method with the EKF) and ``default`` (with the adaptive estimator); a shipped
+    scenario whose targets lure has a fourth, the team ``guarded`` (with the lure guard). Arms
+    are tagged with the scenario and the team."""
     shipped = _shipped(names, scenario_dir)
     generated = _small(stored_adversarial_suite(), max_pairs)[:suite_size]
-    cases = _with_three_teams(shipped, generated, "adversarial", suite_seeds)
+    cases = _with_three_teams(shipped, generated, ADVERSARIAL_TEAMS, suite_seeds)
     # where a shipped scenario's targets lure, a fourth arm: the team with the lure guard
     return [
         (s, arms + (_arm(s, "guarded", "shipped"),))
@@ -203,6 +211,10 @@ BEYOND = (
     "comm-spread",
     "multimodal",
 )
+#: The teams of the ``beyond`` experiment: vanilla, the default team and the default team with
+#: every mechanism for the world's features beyond the paper (docs/beyond.md), on trial.
+BEYOND_TEAMS = ("vanilla", "default", "beyond")
+
 #: Seeds of each stored beyond-suite scenario in the ``beyond`` experiment (its first ones).
 BEYOND_SUITE_SEEDS = 2
 
@@ -213,12 +225,11 @@ def degrades_sensing(scenario: Scenario) -> bool:
 
 
 def _three_teams(
-    scenario: Scenario, extended: str, part: str, max_seeds: int | None = None
+    scenario: Scenario, teams: tuple[str, ...], part: str, max_seeds: int | None = None
 ) -> tuple[Variant, ...]:
-    """The teams ``vanilla``, ``default`` and ``extended`` on ``scenario``, labelled
-    ``<name>-<team>`` and tagged with the scenario, the team, ``part`` and whether a zone
-    degrades sensors (``degrades``)."""
-    return tuple(_arm(scenario, team, part, max_seeds) for team in ("vanilla", "default", extended))
+    """The ``teams`` on ``scenario``, labelled ``<name>-<team>`` and tagged with the scenario,
+    the team, ``part`` and whether a zone degrades sensors (``degrades``)."""
+    return tuple(_arm(scenario, team, part, max_seeds) for team in teams)
 
 
 def _arm(scenario: Scenario, team: str, part: str, max_seeds: int | None = None) -> Variant:
@@ -244,7 +255,7 @@ def beyond_cases(
     ``beyond``."""
     shipped = _shipped(names, scenario_dir)
     generated = _small(stored_beyond_suite(), max_pairs)[:suite_size]
-    return _with_three_teams(shipped, generated, "beyond", suite_seeds)
+    return _with_three_teams(shipped, generated, BEYOND_TEAMS, suite_seeds)
 
 
 def _shipped(names: Iterable[str], scenario_dir: Path | None) -> list[Scenario]:
@@ -264,13 +275,13 @@ def _small(scenarios: list[Scenario], max_pairs: int | None) -> list[Scenario]:
 def _with_three_teams(
     shipped: list[Scenario],
     generated: list[Scenario],
-    extended: str,
+    teams: tuple[str, ...],
     suite_seeds: int,
 ) -> list[tuple[Scenario, tuple[Variant, ...]]]:
     """Each shipped scenario (``part: shipped``) and each generated one (``part: suite``, on its
-    first ``suite_seeds`` seeds) with the three teams of :func:`_three_teams`."""
-    return [(s, _three_teams(s, extended, "shipped")) for s in shipped] + [
-        (s, _three_teams(s, extended, "suite", suite_seeds)) for s in generated
+    first ``suite_seeds`` seeds) with the ``teams`` (:func:`_three_teams`)."""
+    return [(s, _three_teams(s, teams, "shipped")) for s in shipped] + [
+        (s, _three_teams(s, teams, "suite", suite_seeds)) for s in generated
     ]
 
 
@@ -284,9 +295,14 @@ def on_program(experiment: Experiment, program: str) -> Experiment:
     """``experiment`` with every arm on one planner program; the route program's copy is named
     with :data:`ROUTE_SUFFIX` and runs the same seeds. On the one-step program every arm is the
     ``paper`` team's (its program, constraint set and settings), so the failure-aware arms run
-    the paper's method as written. (SOG plans with its own program, so its arms are the same in
-    both.)"""
-    settings = get_team("paper").settings if program == "one_step" else {"planner.program": program}
+    the paper's method as written; on the route program they are the ``route`` team's (the
+    paper's method with the default guards, the EKF and the paper's fixed risk levels). (SOG
+    plans with its own program, so its arms are the same in both.)"""
+    settings = (
+        dict(get_team("paper").settings)
+        if program == "one_step"
+        else {"team": "route", "planner.program": program}
+    )
     variants = tuple(replace(v, overrides={**v.overrides, **settings}) for v in experiment.variants)
     if program == "one_step":
         return replace(
@@ -363,8 +379,8 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             seeds=2 if quick else 10,
             kind="adversarial",
             description=(
-                "targets that evade or lure (docs/model.md §1): the teams vanilla, default and "
-                "adversarial (the adaptive estimator; where targets lure, the team guarded, "
+                "targets that evade or lure (docs/model.md §1): the teams vanilla, route (the "
+                "EKF) and default (the adaptive estimator; where targets lure, the team guarded, "
                 "with the lure guard, as a fourth arm), on "
                 + ", ".join(f"`{n}`" for n in ADVERSARIAL)
                 + f", and on {QUICK_SUITE if quick else ADVERSARIAL_SUITE_SIZE} scenarios of the "
@@ -410,7 +426,8 @@ def select(names: Iterable[str], quick: bool = False) -> list[Experiment]:
 
 
 def _generated_arm(scenario: Scenario, variant: Variant) -> Scenario:
-    data = scenario.model_dump(mode="json")
+    # the scenario's own mapping, so that the arm's team fills in what it leaves unsaid
+    data = scenario.own_data()
     return apply_overrides(data, variant.changes(data), f"{scenario.name} [{variant.label}]")
 
 
@@ -434,9 +451,10 @@ def tasks(
 
 
 def with_team(experiment: Experiment, runs: list[Task], team: str) -> list[Task]:
-    """``runs`` of ``experiment`` with the failure-aware arms that run the default team run by
-    ``team`` instead (``rtrack reproduce --team``); the paper's one-step experiments, whose
-    arms are the ``paper`` team's, and the arms of other teams are kept."""
+    """``runs`` of ``experiment`` with its own failure-aware arms (the ``route`` team's on the
+    route program, the ``default`` team's elsewhere) run by ``team`` instead (``rtrack
+    reproduce --team``); the paper's one-step experiments, whose arms are the ``paper`` team's,
+    and the arms of other teams are kept."""
     if experiment.program == "one_step":
         return runs
     return [

@@ -47,10 +47,29 @@ class UnknownTeam(LookupError):
 #: The team that runs when a scenario names none.
 DEFAULT_TEAM = "default"
 
+#: What the default team adds to the settings' own defaults (docs/caution.md): the adaptive
+#: estimator, which learns each target's process noise (docs/model.md §4.2), and each zone's
+#: risk level priced by what its failure would cost (§6.7; the last sensors' guard is its
+#: special case, so it is folded in).
+_DEFAULT = {
+    "estimator.type": "adaptive",
+    "guards.priced.enabled": True,
+    "guards.last_sensors.enabled": False,
+}
+
+#: The settings' own defaults on every path the default team changes: the paper's Algorithm 1
+#: with the EKF and the paper's fixed risk levels. Every other team starts from these, so that
+#: a team is the same whichever team the scenario it runs on names.
+_FIXED = {
+    "estimator.type": "ekf",
+    "guards.priced.enabled": False,
+    "guards.last_sensors.enabled": True,
+}
+
 #: The paper's method as written: its one-step program (eq. 9) and its constraint set (eqs. 7c,
 #: 7d), none of the guards beyond the paper, with the provisional comm zone of a silent
 #: teammate at the spread the paper's experiments are reproduced with (docs/model.md §10.1).
-_PAPER = {
+_PAPER = _FIXED | {
     "planner.program": "one_step",
     "guards.comm_hazard.enabled": False,
     "guards.last_sensors.enabled": False,
@@ -58,9 +77,6 @@ _PAPER = {
     "belief.provisional_zone.enabled": True,
     "belief.provisional_zone.std": 0.3,
 }
-
-#: The adaptive estimator, which learns each target's process noise (docs/model.md §4.2).
-_ADVERSARIAL = {"estimator.type": "adaptive"}
 
 #: Every mechanism for the world's features beyond the paper (docs/beyond.md).
 _BEYOND = {
@@ -78,7 +94,9 @@ TEAMS: dict[str, NamedTeam] = {
         NamedTeam(
             "default",
             "the failure-aware team that runs when nothing is said: the paper's Algorithm 1"
-            " on the route program, with the default guards",
+            " on the route program, each zone's risk level priced by what its failure would"
+            " cost, and the adaptive estimator",
+            _DEFAULT,
         ),
         NamedTeam(
             "paper",
@@ -87,37 +105,32 @@ TEAMS: dict[str, NamedTeam] = {
             _PAPER,
         ),
         NamedTeam(
-            "adversarial",
-            "the default team with the adaptive estimator, for evasive or erratic targets",
-            _ADVERSARIAL,
+            "route",
+            "the paper's method on the route program with the default guards, the EKF and"
+            " the paper's fixed risk levels (rtrack reproduce's team for the paper's"
+            " experiments repeated on the route program)",
+            _FIXED,
         ),
         NamedTeam(
             "guarded",
-            "the adversarial team with the lure guard, where targets may lure robots into danger",
-            _ADVERSARIAL | {"guards.lure.enabled": True},
+            "the default team with the lure guard, where targets may lure robots into danger",
+            _DEFAULT | {"guards.lure.enabled": True},
         ),
         NamedTeam(
             "beyond",
             "the default team with quarantine, signal turns, the degradation watch and zone"
             " motion, for moving, degrading and spreading zones",
-            _BEYOND,
-        ),
-        NamedTeam(
-            "priced",
-            "the adversarial team with each zone's risk level priced by what its failure"
-            " would cost (the last sensors' guard folded in); the best team measured on every"
-            " suite",
-            _ADVERSARIAL | {"guards.priced.enabled": True, "guards.last_sensors.enabled": False},
+            _DEFAULT | _BEYOND,
         ),
         NamedTeam(
             "vanilla",
             "the paper's baseline: fixed weights, no zone knowledge, no chance constraints",
-            {"policy.name": "vanilla"},
+            _FIXED | {"policy.name": "vanilla"},
         ),
         NamedTeam(
             "sog",
             "the risk-aware baseline after Mayya et al. (safety-aware observability Gramian)",
-            {"policy.name": "sog"},
+            _FIXED | {"policy.name": "sog"},
         ),
     )
 }
