@@ -1,7 +1,7 @@
 """What the learning environments refuse, and that a refusal changes nothing: unknown or
 missing agents, actions of the wrong shape or kind, steps with no episode running, and
 constructor or ``reset`` arguments of the wrong kind. After each refusal the episode goes on
-exactly as an episode that never saw it."""
+exactly as an episode that never saw it (docs/reliability.md §14)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,9 @@ pytest.importorskip("gymnasium")
 pytest.importorskip("pettingzoo")
 
 import gymnasium  # noqa: E402
+import yaml  # noqa: E402
 
+from resilient_tracking import builtin_scenarios  # noqa: E402
 from resilient_tracking.env import TeamEnv, parallel_env  # noqa: E402
 
 SCENARIO = "sensing-temp"  # three robots
@@ -173,6 +175,20 @@ def test_a_team_action_of_the_wrong_shape_or_kind_is_refused_before_stepping(act
     expected = ["action: ", "shape (3, 2)", "Box(", *words]
     refused(error, expected, lambda: env.step(action))
     assert_goes_on_as(env, twin)
+
+
+def test_one_robots_velocity_is_not_given_to_every_robot_of_a_two_robot_team(tmp_path):
+    document = yaml.safe_load(builtin_scenarios.path(SCENARIO).read_text())
+    document["robots"] = document["robots"][:2]
+    two = tmp_path / "two-robots.yaml"
+    two.write_text(yaml.safe_dump(document))
+    env = TeamEnv(str(two), steps=STEPS)
+    env.reset(seed=SEED)
+    before = env.session.running.world.robot_positions.copy()
+    words = ["action: ", "shape (2, 2)", "got shape (2,) (nothing is broadcast)"]
+    refused(ValueError, words, lambda: env.step(np.array([0.2, 0.1])))
+    assert np.array_equal(env.session.running.world.robot_positions, before)
+    assert env.session.running.steps_done == 0
 
 
 def test_a_team_action_of_integers_lists_or_float32_is_the_same_velocity():
