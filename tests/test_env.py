@@ -125,16 +125,6 @@ def test_an_action_that_is_not_finite_holds_its_robot_as_an_invalid_decision():
     assert invalid["robot"].tolist() == [1]
 
 
-def test_an_action_for_fewer_robots_than_the_team_holds_every_robot():
-    env = TeamEnv("sensing-temp", steps=3)
-    env.reset(seed=0)
-    before = env.session.running.world.robot_positions.copy()
-    env.step(np.full((2, 2), 0.2))  # the team has 3 robots
-    assert np.array_equal(env.session.running.world.robot_positions, before)
-    events = env.session.result()["events"]
-    assert set(events[events["event"] == "invalid_decision"]["robot"]) == {0, 1, 2}
-
-
 def test_a_view_without_room_for_zones_leaves_out_the_zones_known():
     known = overridden(shipped("sensing-perm"), {"zones.0.known": True})
     obs, _ = TeamEnv(known, max_zones=0, steps=3).reset(seed=0)

@@ -8,6 +8,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from resilient_tracking.env.checks import agents_acting, velocities
 from resilient_tracking.env.options import RENDER_MODES, Seeds, check_render_mode
 from resilient_tracking.env.render import map_frame
 from resilient_tracking.env.session import TrackingSession
@@ -26,6 +27,12 @@ class TrackingParallelEnv(ParallelEnv):
     acts with a velocity ``(2,)`` within its bound; every agent gets the team's reward. The
     episode ends for all agents at once: terminated when every sensor is out, truncated at the
     scenario's steps. ``infos`` hold the run's numbers (:meth:`TrackingSession.metrics`).
+
+    What it refuses, leaving the episode as it was: a step before ``reset`` or after the
+    episode ended (:class:`~resilient_tracking.env.checks.ResetNeeded`), actions that do not
+    name exactly the live agents (``agents``), an agent's action that is not a ``(2,)`` array
+    of real numbers, a seed that is not a non-negative integer
+    (:mod:`resilient_tracking.env.checks`).
     """
 
     metadata = {"name": "resilient_tracking_v0", "render_modes": list(RENDER_MODES)}
@@ -54,7 +61,9 @@ class TrackingParallelEnv(ParallelEnv):
     ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
         """A new episode (at ``seed``, else the next seed); every agent's view and the run's
         numbers."""
-        self.session.reset(self._seeds.take(seed))
+        chosen = self._seeds.choose(seed)
+        self.session.reset(chosen)
+        self._seeds.started(chosen)
         self.agents = list(self.possible_agents)
         return self._observations(), self._infos()
 
@@ -67,14 +76,16 @@ class TrackingParallelEnv(ParallelEnv):
         dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
-        """Every robot moves with its agent's action (an agent left out holds); views,
-        the team's reward, terminations, truncations and the run's numbers, per agent."""
-        if not self.agents:
-            raise RuntimeError("the episode is over: reset the environment")
-        controls = np.zeros((len(self.possible_agents), 2))
-        for i, agent in enumerate(self.possible_agents):
-            if agent in actions:
-                controls[i] = np.asarray(actions[agent], dtype=float).reshape(2)
+        """Every robot moves with its agent's action (every live agent acts); views, the
+        team's reward, terminations, truncations and the run's numbers, per agent."""
+        self.session.check_steppable()
+        agents_acting(actions, self.agents)
+        controls = np.stack(
+            [
+                velocities(f"action of {agent}", actions[agent], self._velocity_spaces[agent])
+                for agent in self.possible_agents
+            ]
+        )
         reward, terminated, truncated = self.session.step(controls)
         agents = self.agents
         observations, infos = self._observations(), self._infos()

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from resilient_tracking.belief.agent_view import MAX_ZONES, ViewShape, team_views
+from resilient_tracking.env.checks import ResetNeeded
 from resilient_tracking.env.reward import StepOutcome, TrackingReward
 from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.policies.base import Decision
@@ -51,6 +52,8 @@ class TrackingSession:
         self.u_max = np.array([r.u_max for r in scenario.robots], dtype=float)
         self.stepper: EpisodeStepper | None = None
         self._expert_decision: Decision | None = None
+        #: whether the episode has ended (terminated or truncated): it takes no more steps
+        self.ended = False
         self.attacks = 0
         #: the position trace of the team's estimate at the sensed step
         self.trace = float("nan")
@@ -61,6 +64,7 @@ class TrackingSession:
         """A new episode at ``seed``: the world at step 0, sensed by the team."""
         self.stepper = EpisodeStepper(self.scenario, self.expert, seed, record=self.record)
         self._expert_decision = None
+        self.ended = False
         self.attacks = 0
         obs = self.stepper.sense()
         self.attacks += len(obs.attacks)
@@ -70,8 +74,18 @@ class TrackingSession:
     def running(self) -> EpisodeStepper:
         """The episode's stepper (``reset`` first)."""
         if self.stepper is None:
-            raise RuntimeError("reset the environment first")
+            raise ResetNeeded("no episode yet: call reset() first")
         return self.stepper
+
+    def check_steppable(self) -> None:
+        """Refuse a step with no episode running (before the first reset, after the end)."""
+        if self.stepper is None:
+            raise ResetNeeded("no episode yet: call reset() before step()")
+        if self.ended:
+            raise ResetNeeded(
+                f"the episode has ended (terminated or truncated at step "
+                f"{self.stepper.steps_done}): call reset() before stepping again"
+            )
 
     def expert_controls(self) -> np.ndarray:
         """The expert policy's ``(M, 2)`` commands for the current step (decided once)."""
@@ -85,18 +99,26 @@ class TrackingSession:
         """Move every robot with ``controls`` ``(M, 2)`` (clipped to its bounds and the
         workspace), advance the world and sense the next step; returns the reward, whether
         every robot is blind (terminated) and whether the scenario's steps are done
-        (truncated)."""
+        (truncated). Refused, with nothing changed, once the episode has ended or when
+        ``controls`` is not ``(M, 2)``."""
+        self.check_steppable()
         stepper = self.running
         obs = stepper.obs
         assert obs is not None
-        controls = stepper.team.config.clip(np.asarray(controls, dtype=float), obs.positions)
+        controls = np.asarray(controls, dtype=float)
+        if controls.shape != obs.positions.shape:
+            raise ValueError(
+                f"controls: expected shape {obs.positions.shape}, one row per robot, "
+                f"got {controls.shape}"
+            )
+        controls = stepper.team.config.clip(controls, obs.positions)
         trace_before = self.trace
         decision, valid = self._expert_decision, False
         if decision is None or not np.array_equal(controls, decision.controls):
             decision = Decision(controls, [AGENT_MODE] * len(controls))
-            # clipped to the team's bounds, so valid if finite and one row per robot (else
-            # the team's check holds the robots concerned, as any invalid decision)
-            valid = controls.shape == obs.positions.shape and all_finite(controls)
+            # clipped to the team's bounds, so valid if finite (else the team's check holds
+            # the robots concerned, as any invalid decision)
+            valid = all_finite(controls)
         stepper.act(decision, valid)
         self._expert_decision = None
         after = stepper.sense()
@@ -110,6 +132,7 @@ class TrackingSession:
         )
         terminated = outcome.sensing == 0
         truncated = stepper.steps_done >= self.scenario.steps
+        self.ended = terminated or truncated
         return float(self.reward(outcome)), terminated, truncated
 
     # ------------------------------------------------------------------ reading

@@ -8,6 +8,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
+from resilient_tracking.env.checks import velocities
 from resilient_tracking.env.options import RENDER_MODES, Seeds, check_render_mode, make_session
 from resilient_tracking.env.render import map_frame
 from resilient_tracking.env.spaces import velocity_space, view_space
@@ -21,6 +22,11 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
     sensor is out, truncated at the scenario's steps; ``info``: the run's numbers. Keyword
     arguments are those of :func:`resilient_tracking.env.options.make_session`, and ``seed``,
     the first episode's seed when ``reset`` is given none (default: the scenario's).
+
+    What it refuses, leaving the episode as it was: a step before ``reset`` or after the
+    episode ended (:class:`~resilient_tracking.env.checks.ResetNeeded`), an action that is not
+    an ``(M, 2)`` array of real numbers, a seed that is not a non-negative integer
+    (:mod:`resilient_tracking.env.checks`).
     """
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 10}
@@ -46,8 +52,10 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """A new episode (at ``seed``, else the next seed): the team's view, the run's
         numbers."""
-        super().reset(seed=seed)
-        self.session.reset(self._seeds.take(seed))
+        chosen = self._seeds.choose(seed)
+        super().reset(seed=None if seed is None else chosen)
+        self.session.reset(chosen)
+        self._seeds.started(chosen)
         return self.session.views(), self.session.metrics()
 
     def step(
@@ -55,7 +63,9 @@ class TeamEnv(gymnasium.Env[dict[str, np.ndarray], np.ndarray]):
     ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         """Every robot moves with its row of ``action``; the team's view, reward,
         terminated, truncated and the run's numbers."""
-        reward, terminated, truncated = self.session.step(action)
+        self.session.check_steppable()
+        controls = velocities("action", action, self.action_space)
+        reward, terminated, truncated = self.session.step(controls)
         return self.session.views(), reward, terminated, truncated, self.session.metrics()
 
     def expert_action(self) -> np.ndarray:
