@@ -145,8 +145,9 @@ def _every_field_base() -> dict[str, Any]:
     """combined-temp with every kind of number the schema has: each target motion, both hazard
     models, a maximum range, a comm range, the IMM estimator's parameters and every built-in
     policy's parameters written out."""
-    data = parse_scenario(yaml.safe_load((SCENARIOS / "combined-temp.yaml").read_text()))
-    data = data.model_dump(mode="json")
+    written = yaml.safe_load((SCENARIOS / "combined-temp.yaml").read_text())
+    # the team route's EKF section, which the IMM's parameters extend
+    data = parse_scenario(written | {"team": "route"}).model_dump(mode="json")
     data["targets"][1]["motion"] = {"type": "circle", "center": [-2.0, 0.0], "angular_speed": 0.1}
     data["targets"][2]["motion"] = {"type": "ncv", "velocity": [0.1, 0.0], "accel_std": 0.01}
     data["targets"].append(

@@ -244,9 +244,9 @@ def test_a_watched_run_is_deterministic() -> None:
 
 
 def _mission(settings: dict[str, Any]) -> pd.DataFrame:
-    """Per seed of sensing-degrade with these policy settings: onsets (truth), detections
-    (team), NEES, MSE."""
-    scenario = overridden(shipped("sensing-degrade"), settings)
+    """Per seed of sensing-degrade run by the team route (the EKF) with these settings: onsets
+    (truth), detections (team), NEES, MSE."""
+    scenario = overridden(shipped("sensing-degrade").with_team("route"), settings)
     rows = []
     for seed in SEEDS:
         tables = run_episode(scenario, seed=seed).tables

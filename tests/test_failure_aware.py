@@ -27,9 +27,11 @@ PAPER_OFF = ("comm_hazard", "last_sensors", "safe_circling")
 
 
 def scenario(**overrides: Any):
-    """Four-by-six workspace, three robots on the left, still targets; override anything."""
+    """Four-by-six workspace, three robots on the left, still targets, the paper's method at its
+    fixed risk levels (team route); override anything."""
     data: dict[str, Any] = {
         "name": "test",
+        "team": "route",
         "seed": 1,
         "steps": 120,
         "workspace": {"xmin": -5, "xmax": 5, "ymin": -4, "ymax": 4},

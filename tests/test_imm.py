@@ -443,7 +443,7 @@ def test_a_repaired_target_restarts_its_modes_at_the_repair() -> None:
 
 
 def test_the_estimator_section_selects_the_filter() -> None:
-    base = load_scenario(builtin_scenarios.path("sensing-temp"))
+    base = load_scenario(builtin_scenarios.path("sensing-temp")).with_team("route")
     assert isinstance(base.estimator, EstimatorSpec)
     assert isinstance(make_estimator(base), ExtendedKalmanFilter)
     assert "type" not in base.model_dump()["estimator"]  # dumps as before the type existed

@@ -244,7 +244,8 @@ def test_a_drifted_estimate_is_repaired_with_an_event(monkeypatch):
         return out
 
     monkeypatch.setattr(ExtendedKalmanFilter, "update", drifting_update)
-    result = run_episode(shipped("sensing-temp").with_overrides(steps=60), seed=1)
+    route = shipped("sensing-temp").with_overrides(steps=60).with_team("route")  # the EKF
+    result = run_episode(route, seed=1)
     events = result["events"]
     repaired = events[events["event"] == "covariance_repaired"]
     assert len(repaired) == 1

@@ -49,7 +49,7 @@ def test_no_switch_before_the_window_is_full_and_unmeasured_targets_count_for_no
 
 def test_until_the_switch_the_team_tracks_with_the_ekf_bit_for_bit():
     # ncv-sensing's targets move as the EKF's model says: no switch in this run
-    s = shipped("ncv-sensing").with_overrides(steps=100)
+    s = shipped("ncv-sensing").with_overrides(steps=100).with_team("route")
     ekf = run_episode(s, seed=1)
     on_evidence = run_episode(overridden(s, ON_EVIDENCE), seed=1)
     for table in ("team", "targets", "robots"):
@@ -57,10 +57,11 @@ def test_until_the_switch_the_team_tracks_with_the_ekf_bit_for_bit():
 
 
 def test_targets_that_move_otherwise_than_the_model_switch_to_the_adaptive_estimator():
-    s = overridden(shipped("sensing-temp"), ON_EVIDENCE)
+    route = shipped("sensing-temp").with_team("route")
+    s = overridden(route, ON_EVIDENCE)
     estimator = make_estimator(s)
     assert isinstance(estimator, AdaptiveOnEvidence) and not estimator.switched
-    ekf = run_episode(shipped("sensing-temp"), seed=1)
+    ekf = run_episode(route, seed=1)
     switched = run_episode(s, seed=1)
     assert not ekf["team"].equals(switched["team"])
     # the same first steps, then another estimate

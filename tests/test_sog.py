@@ -283,7 +283,7 @@ def test_rtrack_run_with_sog_writes_the_run_folder(tmp_path, capsys):
 
 
 def test_a_sog_episode_is_reproducible_bit_for_bit():
-    s = shipped("sensing-perm").with_overrides(steps=130)
+    s = shipped("sensing-perm").with_overrides(steps=130).with_team("sog")
     a, b = (run_episode(s, policy="sog", seed=1) for _ in range(2))
     assert (a["events"].event == "attack").any()  # knowledge and the zone term are exercised
     for table in REPRODUCIBLE:

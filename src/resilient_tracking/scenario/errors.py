@@ -42,7 +42,8 @@ def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
     """Dotted path of an error in ``data``, without the union tags pydantic inserts in ``loc``.
 
     pydantic reports ``zones.0.sensing.sigma`` for a bad ``sigma`` of a sensing zone; the user's
-    file has no key ``sensing``, so the tag is dropped: ``zones.0.sigma``.
+    file has no key ``sensing``, so the tag is dropped: ``zones.0.sigma``. So is the tag of a
+    variant the scenario's team chose for a mapping that names none (``estimator.adaptive``).
     """
     parts: list[str] = []
     node, owner = data, None
@@ -53,7 +54,9 @@ def _field_path(loc: tuple[int | str, ...], data: Any) -> str:
         value: Any = node.get(tag[0], tag[1]) if tag is not None else None
         if isinstance(value, list):  # a zone of several kinds: pydantic's tag is "multimodal"
             value = "multimodal"
-        if tag is not None and value == part:
+        # the variant a team filled in for a mapping without the key is not in the file either
+        filled = tag is not None and tag[0] not in node and part not in node
+        if tag is not None and (value == part or filled):
             owner = None
             continue
         parts.append(str(part))
