@@ -75,6 +75,28 @@ def unusable_name(option: str, path: str | None) -> bool:
     return False
 
 
+def settings_refused() -> bool:
+    """Print an error and return True when an environment variable rtrack reads
+    (``RTRACK_CODEGEN``, ``RTRACK_CACHE_DIR``, ``RTRACK_CACHE_MAX_MB``) holds a value not
+    allowed; the line names it and what is allowed. Checked before any command runs."""
+    from resilient_tracking.planning.codegen_settings import SettingError, check
+
+    try:
+        check()
+    except SettingError as err:
+        print(f"error: {shown(err)}", file=sys.stderr)
+        return True
+    return False
+
+
+def prepare_compiled_code() -> None:
+    """Before a command's runs (and its progress bar): decide whether compiled code is used,
+    so that a cache that cannot be used is reported in one warning line of its own."""
+    from resilient_tracking.planning import codegen
+
+    codegen.prepare()
+
+
 class ShownFormatter(logging.Formatter):
     """Log lines made safe for the terminal (:func:`shown`), as every other printed text."""
 

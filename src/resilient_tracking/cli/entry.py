@@ -8,7 +8,7 @@ import sys
 
 import resilient_tracking.cli.experiments as experiments
 from resilient_tracking import interrupts
-from resilient_tracking.cli.common import ShownFormatter, shown
+from resilient_tracking.cli.common import ShownFormatter, settings_refused, shown
 from resilient_tracking.cli.parser import build_parser
 
 
@@ -34,6 +34,8 @@ def main(argv: list[str] | None = None) -> int:
         # Dask's scheduler and workers (child processes too) log at INFO by default
         os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
         logging.getLogger("distributed").setLevel(logging.WARNING)
+    if settings_refused():
+        return 1
     from resilient_tracking.runs.folders import FolderBusyError
 
     try:

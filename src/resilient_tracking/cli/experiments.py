@@ -14,6 +14,7 @@ from resilient_tracking.cli.common import (
     advance,
     max_jobs,
     out_of_range,
+    prepare_compiled_code,
     shown,
     unusable_name,
 )
@@ -77,6 +78,7 @@ def _swept(
     out = Path(args.out)
     if _not_a_folder(out) or _holds_foreign_report_files(out, wanted):
         return 1
+    prepare_compiled_code()
     try:
         with tqdm(total=len(tasks), desc=desc, unit="run", disable=args.quiet) as bar:
             ran = run_sweep(

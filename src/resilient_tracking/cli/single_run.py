@@ -18,6 +18,7 @@ from resilient_tracking.cli.common import (
     load_or_report,
     out_of_range,
     policy_problem,
+    prepare_compiled_code,
     shown,
     unusable_name,
 )
@@ -102,6 +103,7 @@ def _run_into(
         if not args.no_figures:
             figures.extend(make_run_figures(folder))
 
+    prepare_compiled_code()
     try:
         with tqdm(
             total=scenario.steps,

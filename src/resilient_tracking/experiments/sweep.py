@@ -6,7 +6,8 @@ so a run folder is either whole or absent, whatever kills the process. A run is 
 its folder exists and its manifest carries the task's fingerprint (scenario, policy, seed and the
 package's code: a run stored by other code is run again) and
 the record that it ran to completion without an interrupt (``"interrupted": false``); a stale
-one, or one without that record, is run again.
+one, or one without that record, is run again, and so is one during which the compiled code
+failed (its manifest's ``compiled_code.failures``, docs/reliability.md §11).
 
 Ctrl-C or SIGTERM stops the sweep (``KeyboardInterrupt``/``interrupts.Terminated``); a run
 during which one came is never stored: the solver ladder raises an interrupt again rather than
@@ -33,8 +34,9 @@ from pathlib import Path
 
 from resilient_tracking import interrupts
 from resilient_tracking.experiments.catalog import Task
+from resilient_tracking.planning import codegen, codegen_status
 from resilient_tracking.runs import folders
-from resilient_tracking.runs.manifest import code_digest
+from resilient_tracking.runs.manifest import code_digest, compiled_code_failed
 from resilient_tracking.runs.records import EpisodeResult, write_run
 from resilient_tracking.sim.episode import run_episode
 
@@ -53,7 +55,8 @@ def is_done(out: Path, task: Task) -> bool:
     """Whether ``task``'s run is stored intact: its manifest carries the task's fingerprint, the
     record that the run finished without an interrupt, and its own checksum, and every table its
     recorded checksum. A damaged or edited stored run is not done (a warning names the file);
-    it is run again, as is one without the record (stored by an older version)."""
+    it is run again, as is one without the record (stored by an older version) and one during
+    which the compiled code failed (docs/reliability.md §11)."""
     folder = run_dir(out, task)
     if not (folder / "manifest.json").exists():
         return False
@@ -65,6 +68,9 @@ def is_done(out: Path, task: Task) -> bool:
             damage = str(err)
         else:
             if manifest.get("fingerprint") != task.fingerprint:
+                return False
+            if compiled_code_failed(manifest):
+                log.info("%s: its compiled code failed during the run; running it again", folder)
                 return False
             if manifest.get("interrupted") is False:
                 return True
@@ -179,9 +185,14 @@ def _worker_setup(parent: int) -> None:
 _SET_UP = False
 
 
-def run_task_in_worker(task: Task, parent: int) -> tuple[str, EpisodeResult | RunFailure]:
-    """:func:`run_task` in a joblib worker of the process ``parent``."""
+def run_task_in_worker(
+    task: Task, parent: int, codegen_off: str | None = None
+) -> tuple[str, EpisodeResult | RunFailure]:
+    """:func:`run_task` in a joblib worker of the process ``parent``; ``codegen_off``: why the
+    parent turned compiled code off (it warned once; the worker follows it without a word)."""
     _worker_setup(parent)
+    if codegen_off is not None and not codegen_status.checked():
+        codegen_status.set_checked(codegen_off, quiet=True)
     return run_task(task)
 
 
@@ -194,8 +205,9 @@ def _joblib_results(
     from joblib import Parallel, delayed
 
     parallel = Parallel(n_jobs=jobs, return_as="generator_unordered")
+    off = codegen_status.off_reason()
     with interrupts.deaf_children():  # the call starts the workers
-        results = parallel(delayed(run_task_in_worker)(t, os.getpid()) for t in todo)
+        results = parallel(delayed(run_task_in_worker)(t, os.getpid(), off) for t in todo)
     yield from results
 
 
@@ -262,6 +274,8 @@ def _run_sweep_locked(
         if on_done is not None and t.run_id not in pending:
             on_done(t, False)
     log.info("%d run(s) to do, %d already stored", len(todo), len(tasks) - len(todo))
+    if todo:
+        codegen.prepare()  # a cache that cannot be used: one warning here, not one per worker
     results = _dask_results(todo, dask, jobs) if dask else _joblib_results(todo, jobs)
     failures: list[RunFailure] = []
     for run_id, result in results:

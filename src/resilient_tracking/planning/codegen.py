@@ -36,7 +36,8 @@ from pathlib import Path
 import casadi as ca
 
 from resilient_tracking import interrupts
-from resilient_tracking.planning import library_index
+from resilient_tracking.planning import codegen_settings, library_cache, library_index
+from resilient_tracking.planning import codegen_status as status
 from resilient_tracking.planning.compile_jobs import CompiledFunctions, start_job
 from resilient_tracking.planning.library_cache import (
     BUILD_PREFIX,
@@ -57,10 +58,39 @@ _REBUILT: set[str] = set()
 
 
 def enabled() -> bool:
-    """Whether compiled code is used: ``RTRACK_CODEGEN`` not ``0`` and a C compiler found."""
-    if os.environ.get("RTRACK_CODEGEN", "1").strip().lower() in ("0", "false", "no", "off"):
+    """Whether compiled code is used: ``RTRACK_CODEGEN`` not ``0``, a C compiler found, and the
+    cache not found unusable (:func:`prepare`). ``SettingError`` for a variable not allowed."""
+    if not codegen_settings.codegen_on() or status.off_reason() is not None:
         return False
     return compiler() is not None
+
+
+def prepare() -> bool:
+    """Before a run: check the environment's settings (``SettingError`` naming a variable not
+    allowed) and, once per process and cache setting, that the cache can be used: without a
+    folder for it (no home folder), or with an entry that cannot be read
+    (:func:`~.library_cache.unusable`), compiled code is turned off with one warning naming
+    the cause, and the run goes on as with ``RTRACK_CODEGEN=0``. Returns :func:`enabled`."""
+    codegen_settings.check()
+    on = enabled()
+    if not on or status.checked():
+        return on
+    try:
+        reason = library_cache.unusable(library_cache.cache_dir())
+    except library_cache.NoCacheFolder as err:
+        reason = str(err)
+    status.set_checked(reason)
+    return reason is None
+
+
+def turn_off(err: Exception, doing: str) -> None:
+    """The compiled path raised ``err`` while ``doing``: record the failure (the run is marked,
+    :mod:`~.codegen_status`) and turn compiled code off for the rest of this process, with one
+    warning; solvers go on, on the virtual machine."""
+    what = f"{doing}: {type(err).__name__}: {err}"
+    status.record_failure(what)
+    if status.off_reason() is None:
+        status.set_checked(what)
 
 
 def compiler() -> str | None:
@@ -85,7 +115,7 @@ def compile_functions(
     ``key``, if given, must determine ``functions`` together with this package's sources (for
     example the problem's structure and options): the cached library is then found through
     the index (:mod:`~.library_index`) without generating code."""
-    if not enabled():
+    if not prepare():
         return None
     names = {name: f"{label}_{name}" for name in functions}
     directory = cache_dir()
@@ -98,7 +128,7 @@ def compile_functions(
         clean_dead_builds(directory)
         workdir = Path(tempfile.mkdtemp(dir=directory, prefix=f"{BUILD_PREFIX}{os.getpid()}-"))
     except OSError as err:
-        log.warning("codegen cache %s unusable: %s", directory, err)
+        turn_off(err, f"preparing a compile in {directory}")
         return None
     source = workdir / f"{label}.c"
     try:
@@ -107,6 +137,7 @@ def compile_functions(
     except Exception as err:  # code generation is an optimisation: never fail a solve on it
         interrupts.reraise(err)
         log.warning("code generation for %s failed: %s", label, err)
+        status.record_failure(f"code generation for {label}: {type(err).__name__}: {err}")
         shutil.rmtree(workdir, ignore_errors=True)
         return None
     library = directory / f"{label}_{digest}.so"
@@ -121,6 +152,7 @@ def compile_functions(
         remove_library(library)
         if library.name in _REBUILT:
             log.warning("cached %s is damaged again (%s); not using compiled code", library, damage)
+            status.record_failure(f"{library.name}: damaged again ({damage})")
             shutil.rmtree(workdir, ignore_errors=True)
             return None
         _REBUILT.add(library.name)

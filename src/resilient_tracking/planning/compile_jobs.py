@@ -21,6 +21,7 @@ from typing import IO
 
 import casadi as ca
 
+from resilient_tracking.planning import codegen_status as status
 from resilient_tracking.planning import compile_supervisor
 from resilient_tracking.planning.library_cache import prune_cache
 
@@ -89,6 +90,7 @@ class CompiledFunctions:
             self.failed = True
             last = " | ".join(line for line in err.splitlines() if line.strip())[-300:]
             log.warning("compiling %s failed (exit %d): %s", self.library.name, code, last)
+            status.record_failure(f"compiling {self.library.name} failed (exit {code})")
             return
         prune_cache(self.library.parent, keep=self.library)
 

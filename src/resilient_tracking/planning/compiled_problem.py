@@ -18,6 +18,7 @@ import numpy as np
 
 from resilient_tracking import interrupts
 from resilient_tracking.planning import codegen
+from resilient_tracking.planning import codegen_status as status
 from resilient_tracking.planning.compile_jobs import CompiledFunctions
 from resilient_tracking.planning.compiled_call import BufferedCall, quiet_stdout
 from resilient_tracking.planning.nlp_cache import count_solver_build
@@ -87,13 +88,27 @@ class CompiledProblem:
 
     def _job(self, method: str) -> CompiledFunctions | None:
         """The (shared) compile job of ``method``'s functions, started on first use; None when
-        codegen is off."""
+        codegen is off (also when it was turned off after a job had started). An error of the
+        compiled path turns codegen off (:func:`~.codegen.turn_off`): never a failed solve."""
         if not self.options.codegen:
+            return None
+        try:
+            if not codegen.enabled():
+                return None
+        except Exception as err:  # a setting changed during the run
+            interrupts.reraise(err)
+            codegen.turn_off(err, "reading the settings")
             return None
         jobs = self.symbolic(method).jobs
         key, label, defines = self.compile_label(method)
         if key not in jobs:
-            jobs[key] = codegen.compile_functions(self.roles(method), label, defines)
+            functions = self.roles(method)
+            try:
+                jobs[key] = codegen.compile_functions(functions, label, defines)
+            except Exception as err:
+                interrupts.reraise(err)
+                codegen.turn_off(err, f"starting the compiled code of {label}")
+                return None
         return jobs[key]
 
     def _call(self, method: str) -> BufferedCall:
@@ -104,19 +119,33 @@ class CompiledProblem:
     def _switch_to_compiled(self, method: str) -> None:
         """Block until ``method``'s compiled code is ready, and use it from now on."""
         job = self._job(method)
-        if job is not None and job.wait() and not self._call(method).compiled:
+        try:
+            usable = job is not None and job.wait()
+        except Exception as err:
+            interrupts.reraise(err)
+            codegen.turn_off(err, f"waiting for {job.library.name if job else method}")
+            usable = False
+        if usable and not self._call(method).compiled:
             self._calls[method] = self._new_call(method, job)
 
     def _new_call(self, method: str, job: CompiledFunctions | None) -> BufferedCall:
         functions = self.roles(method)
-        compiled = job is not None and job.ready()
+        compiled = False
+        if job is not None:
+            try:
+                compiled = job.ready()
+            except Exception as err:
+                interrupts.reraise(err)
+                codegen.turn_off(err, f"finishing {job.library.name}")
         if compiled and job is not None:
             try:
                 functions = job.load()
             except RuntimeError as err:  # a broken library: stay on the virtual machine
                 interrupts.reraise(err)
                 log.warning("loading %s failed: %s", job.library, err)
+                status.record_failure(f"loading {job.library.name} failed: {err}")
                 job.failed, compiled = True, False
+                functions = self.roles(method)
         problem = self.symbolic(method)
         solver = self._build(method, functions, compiled)
         count_solver_build()

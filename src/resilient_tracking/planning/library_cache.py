@@ -8,7 +8,8 @@ fit the file and a throwaway child process loads it (:func:`damage_of`). The cac
 ``$RTRACK_CACHE_MAX_MB`` (default 2048) by deleting the least recently used libraries; a
 library's modification time is its last use. Compile jobs work in ``build-PID-…`` folders
 beside the libraries, removed by their supervisor or, if their owner died, by
-:func:`clean_dead_builds`.
+:func:`clean_dead_builds`. Before a run, :func:`unusable` says why a cache cannot be used
+(docs/reliability.md §11).
 """
 
 from __future__ import annotations
@@ -20,41 +21,90 @@ import shutil
 import struct
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 from resilient_tracking.checksums import sha256_of
+from resilient_tracking.planning import codegen_settings
 
 log = logging.getLogger(__name__)
 
-#: Libraries kept in the cache beyond which the least recently used are deleted (MB).
-DEFAULT_CACHE_MAX_MB = 2048.0
 #: Prefix of a compile job's folder under the cache directory (then the owner's pid).
 BUILD_PREFIX = "build-"
 #: How long a child process may take to load a library being checked (s).
 LOAD_CHECK_SECONDS = 60.0
 
 
+class NoCacheFolder(RuntimeError):
+    """No folder for the cache can be named: no ``RTRACK_CACHE_DIR`` or ``XDG_CACHE_HOME``, and
+    the home folder is unknown (no ``HOME``, and the user has no entry in the password file)."""
+
+
 def cache_dir() -> Path:
-    """Where compiled libraries are cached: ``$RTRACK_CACHE_DIR``, else ``$XDG_CACHE_HOME`` (default
-    ``~/.cache``) ``/resilient_tracking/codegen``."""
-    root = os.environ.get("RTRACK_CACHE_DIR")
+    """Where compiled libraries are cached: ``$RTRACK_CACHE_DIR``, else ``$XDG_CACHE_HOME`` (an
+    absolute path; default ``~/.cache``) ``/resilient_tracking/codegen``. :class:`NoCacheFolder`
+    when none of them is known; ``SettingError`` for a ``RTRACK_CACHE_DIR`` not allowed."""
+    root = codegen_settings.cache_root()
     if root:
         return Path(root)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):  # the XDG specification: a relative path is ignored
+        try:
+            base = str(Path.home() / ".cache")
+        except RuntimeError:
+            raise NoCacheFolder(
+                "no folder for its cache: the home folder is unknown (no HOME, no user "
+                "entry); set RTRACK_CACHE_DIR"
+            ) from None
     return Path(base) / "resilient_tracking" / "codegen"
 
 
 def cache_limit_bytes() -> int:
-    """The cache size limit: ``$RTRACK_CACHE_MAX_MB`` megabytes (default 2048)."""
-    text = os.environ.get("RTRACK_CACHE_MAX_MB", "").strip()
+    """The cache size limit: ``$RTRACK_CACHE_MAX_MB`` megabytes (default 2048;
+    ``SettingError`` for a value not allowed, see :mod:`~.codegen_settings`)."""
+    return int(codegen_settings.cache_max_mb() * 1e6)
+
+
+def unusable(directory: Path) -> str | None:
+    """Why the cache in ``directory`` cannot be used, or None: it must be a folder (with its
+    ``slots/`` and ``index/``, created if missing) this process can create files in; every
+    library a file, every index entry and checksum file a file of UTF-8 text. Checked once
+    before a run (0.1 s for 6000 entries); an entry another process removes meanwhile is
+    skipped."""
     try:
-        megabytes = float(text) if text else DEFAULT_CACHE_MAX_MB
-    except ValueError:
-        log.warning(
-            "RTRACK_CACHE_MAX_MB=%r is not a number; using %g", text[:40], DEFAULT_CACHE_MAX_MB
-        )
-        megabytes = DEFAULT_CACHE_MAX_MB
-    return int(max(megabytes, 0.0) * 1e6)
+        for folder in (directory, directory / "slots", directory / "index"):
+            folder.mkdir(parents=True, exist_ok=True)
+        handle, probe = tempfile.mkstemp(dir=directory, prefix=".probe-")
+        os.close(handle)
+        os.unlink(probe)
+        for folder, text in ((directory, False), (directory / "index", True)):
+            with os.scandir(folder) as listing:
+                for entry in listing:
+                    damage = _entry_damage(entry, text)
+                    if damage is not None:
+                        return f"cache entry {entry.path}: {damage} (remove it)"
+    except OSError as err:
+        return f"cache folder {err.filename or directory}: {err.strerror or err}"
+    return None
+
+
+def _entry_damage(entry: os.DirEntry[str], index: bool) -> str | None:
+    """Why a cache entry (an index entry if ``index``, else anything in the cache folder)
+    cannot be used, or None."""
+    name = entry.name
+    if name.startswith(".") or not (index or name.endswith((".so", ".so.sha256"))):
+        return None
+    try:
+        if not entry.is_file():
+            return "not a file"
+        if index or name.endswith(".sha256"):
+            with open(entry.path, "rb") as handle:
+                handle.read().decode("utf-8")
+    except FileNotFoundError:  # removed by another process meanwhile
+        return None
+    except UnicodeDecodeError:
+        return "not UTF-8 text"
+    return None
 
 
 def prune_cache(directory: Path, keep: Path | None = None, limit: int | None = None) -> int:
@@ -105,12 +155,14 @@ def damage_of(library: Path, names: dict[str, str]) -> str | None:
     sidecar = Path(f"{library}.sha256")
     try:
         if sidecar.exists():
-            if sidecar.read_text().strip() != sha256_of(library):
+            if sidecar.read_text(encoding="utf-8").strip() != sha256_of(library):
                 return "checksum does not match"
             return None
         damage = elf_damage(library)
     except OSError as err:
         return f"cannot read ({err.strerror})"
+    except UnicodeDecodeError:
+        return "its checksum file is not text"
     if damage is None:
         damage = load_damage(library, names)
     if damage is None:

@@ -52,8 +52,8 @@ def _entry(directory: Path, label: str, key: str) -> Path:
 def indexed_library(directory: Path, label: str, key: str, names: dict[str, str]) -> Path | None:
     """The intact cached library the index names for ``key`` (marked as used now), or None."""
     try:
-        library = directory / _entry(directory, label, key).read_text().strip()
-    except OSError:
+        library = directory / _entry(directory, label, key).read_text(encoding="utf-8").strip()
+    except (OSError, ValueError):  # missing, not a file, not text: only costs a generation
         return None
     if library.parent != directory or not library.exists() or damage_of(library, names):
         return None

@@ -17,9 +17,19 @@ from resilient_tracking.version import __version__
 
 
 def episode_manifest(
-    scenario: Scenario, seed: int, policy_name: str, steps: int, wall: float
+    scenario: Scenario,
+    seed: int,
+    policy_name: str,
+    steps: int,
+    wall: float,
+    compiled_code: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The manifest fields of one episode (``manifest.json`` adds the files' checksums)."""
+    """The manifest fields of one episode (``manifest.json`` adds the files' checksums).
+
+    ``compiled_code``: ``{"on": whether compiled code was on as the episode started (a
+    planner's ``codegen`` option may still keep it off), "failures": what failed of the
+    compiled path during it}`` (docs/reliability.md §11); a sweep never reuses a run with
+    failures (:func:`compiled_code_failed`)."""
     return {
         "scenario": scenario.model_dump(mode="json"),
         "seed": seed,
@@ -32,7 +42,14 @@ def episode_manifest(
         "python": platform.python_version(),
         "steps": steps,
         "wall_time_s": round(wall, 3),
+        **({} if compiled_code is None else {"compiled_code": compiled_code}),
     }
+
+
+def compiled_code_failed(manifest: dict[str, Any]) -> bool:
+    """Whether a run's manifest records a failure of the compiled path during the run."""
+    record = manifest.get("compiled_code")
+    return isinstance(record, dict) and bool(record.get("failures"))
 
 
 def source_digest(root: Path) -> str:

@@ -26,6 +26,7 @@ from resilient_tracking.build import prior_estimate
 from resilient_tracking.events import Event
 from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.observation import TeamObservation
+from resilient_tracking.planning import codegen, codegen_status
 from resilient_tracking.planning.planner import FaultHook
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.bound import PositionBound
@@ -103,6 +104,10 @@ class EpisodeStepper:
         self.scenario = scenario
         self.policy_name = policy
         self.seed = seed
+        #: whether compiled code is on, decided before the episode (a cache that cannot be
+        #: used turns it off here, with one warning; a setting not allowed raises)
+        self.compiled_code = codegen.prepare()
+        self._codegen_mark = codegen_status.mark()
         self.world = World(scenario, seed)
         self.team = build_team(scenario, policy, seed, self.world.target_states, fault_hook)
         n_targets = len(self.world.targets)
@@ -182,8 +187,12 @@ class EpisodeStepper:
         """The tables of the steps acted so far, with the manifest (``wall``: seconds taken)."""
         if self.rows is None:
             raise RuntimeError("this episode records no tables (record=False)")
+        compiled = {
+            "on": self.compiled_code,
+            "failures": codegen_status.failures_since(self._codegen_mark),
+        }
         manifest = episode_manifest(
-            self.scenario, self.seed, self.policy_name, self.steps_done, wall
+            self.scenario, self.seed, self.policy_name, self.steps_done, wall, compiled
         )
         team_rows, truth_rows = self.rows
         return EpisodeResult(join_tables(team_rows.tables(), truth_rows.tables()), manifest)
