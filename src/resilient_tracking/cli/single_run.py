@@ -140,8 +140,9 @@ def _run_into(
         first = invalid.iloc[0]
         print(
             f"warning: {len(invalid)} invalid decision(s) of the policy: {shown(first['detail'])} "
-            f"(first at step {first['step']}, robot {first['robot']}); those robots held "
-            "position (events.parquet, event invalid_decision)",
+            f"(first at step {first['step']}, robot {first['robot']}); the team contained "
+            "them: a robot with a wrong control held position, events or plans it could not "
+            "record were dropped (events.parquet, event invalid_decision)",
             file=sys.stderr,
         )
     return 0
