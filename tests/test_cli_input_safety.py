@@ -8,6 +8,7 @@ import json
 import logging
 import os
 import shutil
+import sys
 from pathlib import Path
 
 import pytest
@@ -180,3 +181,51 @@ def test_animate_refuses_a_folder_as_its_output_file(run_folder, tmp_path, capsy
     assert main(["animate", str(run_folder), "--out", str(tmp_path), "-q"]) == 1
     assert one_error_line(capsys.readouterr().err).endswith("is a folder; give a GIF file name")
     assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("command", ["compare", "reproduce"])
+def test_dask_without_the_cluster_extra_is_one_line_naming_it(
+    command, tmp_path, capsys, monkeypatch
+):
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)  # as if not installed
+    out = tmp_path / "out"
+    argv = [command, "sensing-temp", "--dask", "local", "--out", str(out), "-q"]
+    argv += ["--seeds", "1", "--policies", "vanilla"] if command == "compare" else ["--quick"]
+    assert main(argv) == 1
+    line = one_error_line(capsys.readouterr().err)
+    assert line == "error: --dask needs dask.distributed: pip install 'resilient-tracking[cluster]'"
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("seed", [2**63, 10**30, -1])
+def test_run_refuses_a_seed_beyond_the_scenario_s_cap(seed, tmp_path, capsys):
+    out = tmp_path / "out"
+    argv = ["run", "sensing-temp", "--steps", "2", "--seed", str(seed), "--out", str(out)]
+    assert main([*argv, "--no-figures", "-q"]) == 1
+    line = one_error_line(capsys.readouterr().err)
+    assert line.startswith(f"error: --seed: must be between 0 and {2**63 - 1}"), line
+    assert not out.exists()
+
+
+def test_run_accepts_the_largest_seed(tmp_path):
+    out = tmp_path / "out"
+    argv = ["run", "sensing-temp", "--steps", "2", "--seed", str(2**63 - 1), "--out", str(out)]
+    assert main([*argv, "--no-figures", "-q"]) == 0
+    assert json.loads((out / "manifest.json").read_text())["seed"] == 2**63 - 1
+
+
+def test_run_refuses_an_out_that_is_a_link_to_a_run_folder_and_keeps_both(
+    run_folder, tmp_path, capsys
+):
+    target = tmp_path / "target"
+    shutil.copytree(run_folder, target)
+    before = sorted(p.name for p in target.iterdir())
+    link = tmp_path / "link"
+    link.symlink_to(target, target_is_directory=True)
+    argv = ["run", "sensing-temp", "--steps", "2", "--no-figures", "-q", "--out", str(link)]
+    for extra in ([], ["--overwrite"]):
+        assert main([*argv, *extra]) == 1
+        line = one_error_line(capsys.readouterr().err)
+        assert f"error: --out: {link}: is a symbolic link" in line, line
+        assert link.is_symlink() and link.resolve() == target.resolve()
+        assert sorted(p.name for p in target.iterdir()) == before

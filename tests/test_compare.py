@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from helpers import shipped
+from helpers import SCENARIOS, shipped
 from resilient_tracking.cli import main
 from resilient_tracking.experiments.comparison import (
     describe_seeds,
@@ -265,3 +265,103 @@ def test_compare_by_zone_kind_needs_two_seeds(tmp_path, capsys):
     argv = ["compare", "sensing-temp", "--seeds", "3-3", "--by-zone-kind"]
     assert main([*argv, "--policies", "failure_aware,vanilla", "--out", str(tmp_path)]) == 1
     assert "--by-zone-kind: needs at least two --seeds" in capsys.readouterr().err
+
+
+HOSTILE_NAMES = [
+    "a.yaml",
+    "a-3.yaml",
+    "sub/a.yaml",
+    "A.yml",
+    "...yaml",
+    "../scen/mission",
+    "UP.YAML",
+    "runs.yaml",
+    ".hidden.yaml",
+    "x y`z.yaml",
+]
+
+
+@pytest.fixture
+def hostile_files(tmp_path, monkeypatch):
+    """Scenario files whose names collide, climb out or use another case; the folder they are
+    given from is ``tmp_path/work``."""
+    work = tmp_path / "work"
+    text = (SCENARIOS / "sensing-temp.yaml").read_text()
+    for name in HOSTILE_NAMES:
+        path = work / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    monkeypatch.chdir(work)
+    return work
+
+
+def test_compare_labels_are_unique_and_every_scenario_is_kept(hostile_files):
+    study = make_study(HOSTILE_NAMES, ["vanilla"], 1)
+    labels = list(study.scenarios)
+    assert len(labels) == len(HOSTILE_NAMES)
+    assert len({label.casefold() for label in labels}) == len(labels)
+    assert [study.sources[label] for label in labels] == HOSTILE_NAMES
+    assert labels[:4] == ["a", "a-3", "a-2", "A-4"]  # in the order given, first keeps its name
+    assert labels[4:] == ["__", "mission", "UP", "runs-2", "_hidden", "x_y_z"]
+    assert {t.experiment for t in study.tasks()} == set(labels)
+
+
+def test_compare_writes_nothing_outside_its_folder_whatever_the_names(hostile_files):
+    from resilient_tracking.experiments.comparison import files_of_report
+    from resilient_tracking.experiments.sweep import run_dir
+
+    study = make_study(HOSTILE_NAMES, ["vanilla"], 1)
+    out = hostile_files / "out"
+    root = out.resolve()
+    paths = [run_dir(out, t) for t in study.tasks()]
+    paths += [out / name for name in files_of_report(study).folders]
+    for path in paths:
+        resolved = path.resolve()
+        assert resolved.is_relative_to(root) and resolved != root, path
+        assert resolved.relative_to(root).parts[0] not in ("report.md", "summary.csv", "runs.csv")
+    assert len({p.resolve() for p in paths}) == len(paths)
+
+
+def test_the_report_names_each_scenario_s_file_beside_its_label(hostile_files):
+    from resilient_tracking.experiments.comparison import write_compare_report
+
+    study = make_study(["a.yaml", "sub/a.yaml", "x y`z.yaml", "sensing-temp"], ["vanilla"], 1)
+    out = hostile_files / "out"
+    report = write_compare_report(study, study.tasks(), out, "rtrack compare").read_text()
+    assert "## a\n\nScenario `a.yaml`." in report
+    assert "## a-2\n\nScenario `sub/a.yaml`." in report
+    assert "## x_y_z\n\nScenario ``x y`z.yaml``." in report
+    assert "## sensing-temp\n\n" in report and "Scenario `sensing-temp`" not in report
+
+
+def test_an_upper_case_suffix_is_a_scenario_file_like_a_lower_case_one(hostile_files, capsys):
+    assert list(make_study(["UP.YAML"], ["vanilla"], 1).scenarios) == ["UP"]
+    code = main(["compare", "missing.YAML", "--seeds", "1", "--out", "out", "-q"])
+    assert code == 1
+    assert "missing.YAML" in capsys.readouterr().err
+    assert not (hostile_files / "out").exists()
+
+
+def test_a_label_folder_that_is_a_file_is_refused_by_name_before_anything_runs(
+    hostile_files, capsys
+):
+    """A scenario file given from the --out folder itself, named like its label: the figures
+    would go into the file."""
+    (hostile_files / "plain").write_text((SCENARIOS / "sensing-temp.yaml").read_text())
+    code = main(["compare", "plain", "--seeds", "1", "--policies", "vanilla", "--out", ".", "-q"])
+    assert code == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: --out: plain: exists and was not written by rtrack"), err
+    assert len(err.splitlines()) == 1 and not (hostile_files / "runs").exists()
+
+
+def test_a_label_folder_that_is_a_link_is_refused_before_anything_runs(hostile_files, capsys):
+    elsewhere = hostile_files / "elsewhere"
+    elsewhere.mkdir()
+    out = hostile_files / "out"
+    out.mkdir()
+    (out / "a").symlink_to(elsewhere, target_is_directory=True)
+    code = main(["compare", "a.yaml", "--seeds", "1", "--policies", "vanilla", "--out", "out"])
+    assert code == 1
+    assert "out/a: exists and was not written by rtrack" in capsys.readouterr().err
+    assert list(elsewhere.iterdir()) == [] and not (out / "runs").exists()

@@ -14,6 +14,7 @@ import pytest
 import yaml
 
 from helpers import shipped
+from resilient_tracking.events import Event
 from resilient_tracking.policies import Decision, Policy
 from resilient_tracking.sim.episode import run_episode
 
@@ -120,6 +121,72 @@ def test_a_wrong_shape_holds_every_robot_with_one_warning(caplog):
     assert (result["robots"][["ux", "uy"]].to_numpy() == 0.0).all()
     warnings = [r for r in caplog.records if r.levelname == "WARNING"]
     assert len(warnings) == 1 and "policy wrong_shape" in warnings[0].getMessage()
+
+
+class ChattyPolicy(Policy):
+    """Fair controls; its events and plans are given per test (``EVENTS``, ``PLANS``)."""
+
+    name = "chatty"
+    learns_zones = False
+    EVENTS: object = []
+    PLANS: object = []
+
+    def act(self, belief, obs) -> Decision:
+        decision = Decision(np.zeros((obs.n_robots, 2)), ["chatty"] * obs.n_robots)
+        decision.events, decision.plans = self.EVENTS, self.PLANS  # type: ignore[assignment]
+        return decision
+
+
+def _plan(**changes):
+    from resilient_tracking.planning.plan_result import PlanResult
+
+    fields = {"controls": np.zeros((1, 2)), "status": "ok", "success": True}
+    return PlanResult(**{**fields, "iterations": 3, "solve_ms": 1.5, **changes})
+
+
+BAD_FIELDS = [
+    ("events", ["hello"], "events[0] is str 'hello', not an Event"),
+    ("events", ("not", "a list"), "events[0] is str"),
+    ("events", "text", "events must be a list of Event, got str"),
+    ("events", [Event(0, 0, "attack", detail=None)], "events[0].detail must be text"),
+    ("events", [Event("0", 0, "attack")], "events[0].step must be an integer"),
+    ("events", [Event(0, 0, "dance")], "events[0].event 'dance' is not the name of a team's"),
+    ("events", [Event(0, 0, "degraded")], "events[0].event 'degraded' is not the name"),
+    ("plans", None, "plans must be a list of PlanResult, got NoneType"),
+    ("plans", [{"success": True}], "plans[0] is dict"),
+    ("plans", [_plan(iterations=2.5)], "plans[0].iterations must be an integer"),
+    ("plans", [_plan(solve_ms="fast")], "plans[0].solve_ms must be a number"),
+    ("plans", [_plan(success="yes")], "plans[0].success must be a bool"),
+]
+
+
+@pytest.mark.parametrize(("field", "value", "words"), BAD_FIELDS)
+def test_events_and_plans_a_run_cannot_record_are_dropped_as_invalid_decisions(
+    field, value, words, monkeypatch
+):
+    from resilient_tracking.scenario import parse_scenario
+
+    monkeypatch.setattr(ChattyPolicy, field.upper(), value)
+    result = run_episode(parse_scenario(_scenario()), policy=f"{__name__}:ChattyPolicy")
+    bad = result["events"][result["events"]["event"] == "invalid_decision"]
+    assert len(bad) == 3 * 6 and set(bad["cause"]) == {field}, bad
+    assert bad["detail"].str.contains(words, regex=False).all(), bad["detail"].iloc[0]
+    robots = result["robots"]
+    assert (robots["mode"] == "chatty").all()  # a fair control: no robot holds
+    if field == "plans":
+        assert (result["team"]["n_solves"] == 0).all()
+
+
+def test_well_formed_events_and_plans_are_recorded(monkeypatch):
+    from resilient_tracking.scenario import parse_scenario
+
+    monkeypatch.setattr(ChattyPolicy, "EVENTS", (Event(0, np.int64(1), "zone_suspected"),))
+    monkeypatch.setattr(ChattyPolicy, "PLANS", [_plan(success=np.bool_(False))])
+    result = run_episode(parse_scenario(_scenario()), policy=f"{__name__}:ChattyPolicy")
+    events = result["events"]
+    assert (events["event"] == "invalid_decision").sum() == 0
+    assert (events["event"] == "zone_suspected").sum() == 6
+    assert (result["team"]["n_solver_failures"] == 1).all()
 
 
 @pytest.mark.parametrize("jobs", [1, 2])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -121,3 +123,83 @@ def test_an_instance_is_checked_on_copies(scenario):
 def test_blind_tick_is_where_raises_is_reported(scenario):
     report = check_policy(Raises, scenario)
     assert {v.tick for v in report.violations} == {"every robot blind"}
+
+
+class Exits(Still):
+    def controls(self, obs):
+        sys.exit(0)
+
+
+class GeneratorExits(Still):
+    def controls(self, obs):
+        raise GeneratorExit("gone")
+
+
+class Odd(BaseException):
+    """Neither an Exception nor an interrupt."""
+
+
+class RaisesOdd(Still):
+    def controls(self, obs):
+        raise Odd("odd")
+
+
+class ExitsWhenBuilt(Still):
+    def __init__(self, config, params=None):
+        sys.exit(4)
+
+
+class NeedsExit(Still):
+    def belief_needs(self):
+        sys.exit(5)
+
+
+class Interrupted(Still):
+    def controls(self, obs):
+        raise KeyboardInterrupt
+
+
+class StringEvents(Still):
+    def act(self, belief, obs):
+        decision = super().act(belief, obs)
+        decision.events = ["attack"]
+        return decision
+
+
+class BadPlans(Still):
+    def act(self, belief, obs):
+        decision = super().act(belief, obs)
+        decision.plans = [{"solve_ms": 1.0}]
+        return decision
+
+
+@pytest.mark.parametrize(
+    ("cls", "tick", "words"),
+    [
+        (Exits, "all well, no zone knowledge", "act called sys.exit(0) in test_policy_check.Exits"),
+        (GeneratorExits, "all well, no zone knowledge", "act raised GeneratorExit: gone in"),
+        (RaisesOdd, "all well, no zone knowledge", "act raised Odd: odd in test_policy_check"),
+        (ExitsWhenBuilt, "build", "building the policy called sys.exit(4) in"),
+        (NeedsExit, "setup", "setting up its team called sys.exit(5) in"),
+        (StringEvents, "all well, no zone knowledge", "events[0] is str 'attack', not an Event"),
+        (BadPlans, "all well, no zone knowledge", "plans[0] is dict"),
+    ],
+)
+def test_exits_and_fields_a_run_cannot_use_are_reported_not_raised(cls, tick, words, scenario):
+    report = check_policy(cls, scenario)
+    assert not report.ok
+    assert report.violations[0].tick == tick
+    assert words in str(report), str(report)
+
+
+def test_a_policy_module_that_exits_at_import_is_reported(scenario, tmp_path, monkeypatch):
+    (tmp_path / "exits_at_import_for_check.py").write_text("import sys\nsys.exit(0)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    report = check_policy("exits_at_import_for_check:P", scenario)
+    assert not report.ok and report.violations[0].tick == "build"
+    assert "called sys.exit(0) at import" in str(report), str(report)
+
+
+def test_an_interrupt_in_act_is_raised_not_reported(scenario):
+    with pytest.raises(KeyboardInterrupt):
+        check_policy(Interrupted, scenario)

@@ -7,9 +7,13 @@ isolated robot with a permanent comm failure, every robot blind, every robot cut
 belief is updated as in an episode (:class:`~resilient_tracking.team.Team`), then the policy's
 :meth:`~resilient_tracking.policies.base.Policy.act` is called. Every tick is checked for
 
-* ``act`` raising, or returning something that is not a :class:`Decision`;
+* building the policy, setting up its team or ``act`` raising, calling ``sys.exit`` or raising
+  any other ``BaseException`` but an interrupt (reported, never raised);
+* ``act`` returning something that is not a :class:`Decision`;
 * controls of the wrong shape, non-finite, or outside the robots' velocity bounds;
-* modes that are not one string per robot;
+* modes that are not one string per robot; events that are not :class:`Event` rows the events
+  table can hold; plans that are not :class:`PlanResult` records the team table can count
+  (every field checked as a run uses it, :mod:`~resilient_tracking.policies.checks`);
 * different controls in the second run (nondeterminism under a seed);
 
 and the policy for reaching for truth: importing or naming the simulator's world
@@ -36,6 +40,7 @@ import numpy as np
 from resilient_tracking.belief.estimate import TargetEstimate
 from resilient_tracking.build import make_estimator, make_policy, team_config
 from resilient_tracking.observation import Attack, TeamObservation, ZoneClue
+from resilient_tracking.plugin_guard import culprit, is_escape, is_failure, what_it_did
 from resilient_tracking.policies import Policy
 from resilient_tracking.policies.checks import decision_problems
 from resilient_tracking.rng import stream
@@ -115,7 +120,9 @@ def check_policy(policy: PolicyLike, scenario: Scenario, seed: int = 0) -> Polic
     report = PolicyReport(policy=label)
     try:
         first_policy = factory()
-    except Exception as err:
+    except BaseException as err:
+        if not is_failure(err):
+            raise
         report.ticks = [name for name, _ in _situations(scenario)]
         report.violations.append(Violation("build", _failure("building the policy", err)))
         return report
@@ -124,7 +131,9 @@ def check_policy(policy: PolicyLike, scenario: Scenario, seed: int = 0) -> Polic
     first = _drive(first_policy, scenario, seed, report, record=True)
     try:
         second_policy = factory()
-    except Exception as err:
+    except BaseException as err:
+        if not is_failure(err):
+            raise
         report.notes.append(f"determinism not checked: a second copy failed ({err})")
         return report
     second = _drive(second_policy, scenario, seed, report=None, record=False)
@@ -163,7 +172,11 @@ def _factory(policy: PolicyLike, scenario: Scenario) -> tuple[Callable[[], Polic
 
 
 def _failure(what: str, err: BaseException) -> str:
-    """One line for an exception: where it was raised (file:line), never a traceback."""
+    """One line for an exception: where it was raised (file:line), never a traceback; for an
+    exit or another escape past ``except Exception``, which code did it."""
+    if is_escape(err):
+        found = culprit(err.__traceback__)
+        return f"{what} {what_it_did(err)}" + (f" in {found}" if found is not None else "")
     frames = inspect.trace()
     where = f" at {Path(frames[-1].filename).name}:{frames[-1].lineno}" if frames else ""
     return f"{what} raised {type(err).__name__}: {err}{where}"
@@ -230,14 +243,22 @@ def _drive(
     rng = stream(seed, "policy_check")
     means = np.column_stack([targets, np.zeros((n, 2))])
     noise = rng.standard_normal(means.shape) * prior.initial_position_std
-    team = Team(
-        policy,
-        TargetEstimate.initial(
-            means + noise, prior.initial_position_std, prior.initial_velocity_std
-        ),
-        make_estimator(scenario, config),
-        scenario.belief,
-    )
+    try:
+        team = Team(
+            policy,
+            TargetEstimate.initial(
+                means + noise, prior.initial_position_std, prior.initial_velocity_std
+            ),
+            make_estimator(scenario, config),
+            scenario.belief,
+        )
+    except BaseException as err:  # belief_needs() and learns_zones are the policy's code
+        if not is_failure(err):
+            raise
+        if report is not None:
+            report.ticks += [name for name, _ in _situations(scenario)] if record else []
+            report.violations.append(Violation("setup", _failure("setting up its team", err)))
+        return [(name, None) for name, _ in _situations(scenario)]
     positions = np.array([r.start for r in scenario.robots], dtype=float)
     out: list[tuple[str, np.ndarray | None]] = []
     for k, (name, situation) in enumerate(_situations(scenario)):
@@ -247,7 +268,9 @@ def _drive(
         try:
             team.belief.update(obs)
             decision = policy.act(team.belief, obs)
-        except Exception as err:
+        except BaseException as err:
+            if not is_failure(err):
+                raise
             if report is not None:
                 report.violations.append(Violation(name, _failure("act", err)))
             out.append((name, None))

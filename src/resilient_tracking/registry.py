@@ -14,6 +14,9 @@ A :class:`Registry` maps names to classes. A name is found, in this order, among
 
 So a new policy, hazard model or target motion is one new file in its own package: nothing in
 this package changes. Lookups raise :class:`UnknownName`, whose message lists what is known.
+A plug-in module is imported with a command line of its own, and one that exits or raises
+anything but an interrupt at import is an :class:`UnknownName` saying what it did
+(:mod:`~resilient_tracking.plugin_guard`).
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ import logging
 from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Generic, TypeVar
+
+from resilient_tracking import plugin_guard
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +81,12 @@ class Registry(Generic[T]):
         for ep in entry_points(group=self.group):
             if ep.name == name:
                 try:
+                    plugin_guard.importing(ep.module)
                     cls = ep.load()
+                except plugin_guard.PluginError as err:
+                    raise UnknownName(
+                        f"{self.kind} {name!r}: entry point {ep.value!r}: {err}"
+                    ) from None
                 except Exception as err:  # a broken plug-in is named, never a traceback
                     raise UnknownName(
                         f"{self.kind} {name!r}: entry point {ep.value!r} failed to load "
@@ -132,7 +142,9 @@ class Registry(Generic[T]):
     def _import(self, path: str) -> T:
         module_name, _, attr = path.partition(":")
         try:
-            module = importlib.import_module(module_name)
+            module = plugin_guard.importing(module_name)
+        except plugin_guard.PluginError as err:  # it names the module and what it did
+            raise UnknownName(f"{self.kind} {path!r}: {err}") from None
         except Exception as err:
             raise UnknownName(
                 f"{self.kind} {path!r}: cannot import module {module_name!r} "

@@ -15,8 +15,8 @@ Inputs are checked before anything is updated; a wrong shape or length raises ``
 naming the field. Lists are accepted wherever arrays are. The policy's decision is checked too
 (:mod:`~resilient_tracking.policies.checks`): a robot whose control is not finite or breaks its
 velocity bounds (every robot, when the controls are not an ``(M, 2)`` array of numbers) holds its
-position instead, with an ``invalid_decision`` event naming the policy; the first one is logged
-as a warning.
+position instead, events or plans the run cannot record are dropped, each with an
+``invalid_decision`` event naming the policy; the first one is logged as a warning.
 """
 
 from __future__ import annotations
@@ -206,7 +206,7 @@ class Team:
             controls, problems = decision_problems(decision, self.config, obs.positions)
             if problems:
                 decision = self._contain(decision, controls, problems, obs)
-        events = events + decision.events
+        events = [*events, *decision.events]  # a tuple of events is fine too
         events += [
             Event.zone_learned(obs.step, robot, z.key, z.kind, z.source, z.zone_id, z.persistence)
             for robot, z in self.belief.learned
@@ -221,7 +221,8 @@ class Team:
         obs: TeamObservation,
     ) -> Decision:
         """The decision with every robot whose control is wrong holding position (zero velocity,
-        always within bounds) and an ``invalid_decision`` event per problem and robot."""
+        always within bounds), without its events or plans when they cannot be recorded, and an
+        ``invalid_decision`` event per problem and robot."""
         m, name = obs.n_robots, getattr(self.policy, "name", type(self.policy).__name__)
         held = {p.robot for p in problems if p.robot is not None}
         if controls is None:  # no usable controls at all
@@ -234,7 +235,10 @@ class Team:
             modes = [name] * m
         for i in held:
             modes[i] = "hold"
-        contained = Decision(safe, modes, events=list(given.events), plans=list(given.plans))
+        kinds = {p.kind for p in problems}  # events or plans a run cannot record are dropped
+        events = [] if "events" in kinds else list(given.events)
+        plans = [] if "plans" in kinds else list(given.plans)
+        contained = Decision(safe, modes, events=events, plans=plans)
         for p in problems:
             for i in [p.robot] if p.robot is not None else range(m):
                 contained.events.append(
@@ -242,11 +246,11 @@ class Team:
                 )
         log.log(
             logging.DEBUG if self._warned_invalid else logging.WARNING,
-            "step %d: policy %s: %s; robots %s hold position%s",
+            "step %d: policy %s: %s; %s%s",
             obs.step,
             name,
             "; ".join(p.message for p in problems[:3]),
-            sorted(held),
+            f"robots {sorted(held)} hold position" if held else "no robot holds",
             ""
             if self._warned_invalid
             else " (every invalid decision is an invalid_decision "

@@ -48,7 +48,7 @@ def resolve(name_or_path: str | Path) -> Path:
     Raises :class:`ScenarioError` (naming the argument) when it is neither.
     """
     given = Path(name_or_path)
-    if given.exists() or given.suffix in (".yaml", ".yml") or len(given.parts) > 1:
+    if given.exists() or given.suffix.lower() in (".yaml", ".yml") or len(given.parts) > 1:
         return given
     if str(name_or_path) in names():
         return path(str(name_or_path))

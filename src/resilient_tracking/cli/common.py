@@ -33,6 +33,21 @@ def out_of_range(name: str, value: float | None, low: float, high: float) -> boo
     return True
 
 
+def bad_seed(seed: int | None) -> bool:
+    """Print an error and return True when ``--seed`` is given and is not a seed a scenario
+    takes: 0 to :data:`~resilient_tracking.spec.MAX_SEED` (its ``seed`` field's bounds)."""
+    from resilient_tracking.spec import MAX_SEED
+
+    if seed is None or 0 <= seed <= MAX_SEED:
+        return False
+    print(
+        f"error: --seed: must be between 0 and {MAX_SEED}, the largest seed a scenario "
+        f"takes (got {seed})",
+        file=sys.stderr,
+    )
+    return True
+
+
 def shown(text: object, lines: bool = False) -> str:
     """``text`` safe to print to a terminal: every character a terminal would act on instead of
     showing it (escape sequences, carriage returns, bells, Unicode format characters such as a

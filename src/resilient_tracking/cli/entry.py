@@ -10,12 +10,13 @@ import resilient_tracking.cli.experiments as experiments
 from resilient_tracking import interrupts
 from resilient_tracking.cli.common import ShownFormatter, settings_refused, shown
 from resilient_tracking.cli.parser import build_parser
+from resilient_tracking.plugin_guard import PluginError, contained
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``rtrack``: parse ``argv`` (default: the command line), set up logging and run
     the subcommand; returns its exit status (130 after Ctrl-C, 143 after SIGTERM, finished runs
-    kept)."""
+    kept; 1 when a plug-in exited, with one line naming it)."""
     args = build_parser().parse_args(argv)
     if getattr(args, "func", None) is experiments.cmd_compare:
         args.argv = argv
@@ -41,7 +42,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with interrupts.catching():
             try:
-                code = int(args.func(args))
+                # a plug-in that exits or raises past ``except Exception`` where no command
+                # expects it (a validator of its Spec, say) is named, never a silent exit
+                with contained(f"during rtrack {args.command}"):
+                    code = int(args.func(args))
             except Exception:
                 # a library that turned the Ctrl-C into its own error (Matplotlib's Agg:
                 # "Invalid bounding box") still stands for the interrupt
@@ -59,6 +63,9 @@ def main(argv: list[str] | None = None) -> int:
         if argv is None:  # the command itself, not a call from Python
             interrupts.exit_now(143 if term else 130)
         return 143 if term else 130
+    except PluginError as err:
+        print(f"error: {shown(err)}", file=sys.stderr)
+        return 1
     except FolderBusyError as err:
         print(f"error: {shown(err)}", file=sys.stderr)
         return 1

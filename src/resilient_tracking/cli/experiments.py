@@ -71,9 +71,12 @@ def _swept(
 ) -> tuple[Path, list[Task]] | int:
     """Check ``--out`` (a usable folder holding no file rtrack did not write), then run the sweep
     with a progress bar: the folder and the runs done, or the exit code to return."""
-    from resilient_tracking.experiments.sweep import SweepError, run_sweep
+    from resilient_tracking.experiments.sweep import SweepError, dask_problem, run_sweep
 
     if unusable_name("--out", args.out):
+        return 1
+    if args.dask and (why := dask_problem()) is not None:  # before anything is created
+        print(f"error: {why}", file=sys.stderr)
         return 1
     out = Path(args.out)
     if _not_a_folder(out) or _holds_foreign_report_files(out, wanted):

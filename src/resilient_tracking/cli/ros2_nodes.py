@@ -10,6 +10,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from resilient_tracking.cli.common import (
+    bad_seed,
     load_or_report,
     out_of_range,
     policy_problem,
@@ -34,8 +35,7 @@ def node_setup(args: argparse.Namespace) -> tuple[Scenario, int, object] | None:
     scenario = load_or_report(args.scenario, getattr(args, "team", None))
     if scenario is None:
         return None
-    if args.seed is not None and args.seed < 0:
-        print("error: --seed: must be non-negative", file=sys.stderr)
+    if bad_seed(args.seed):
         return None
     for name in ("pose_timeout", "observation_timeout", "give_up", "startup_timeout"):
         value = getattr(args, name)
@@ -97,6 +97,9 @@ def cmd_node(args: argparse.Namespace) -> int:
     if unusable_name("--out", args.out):
         return 1
     out = Path(args.out or f"runs/{folder_name(f'{scenario.name}-{policy}')}-seed{seed}-ros2")
+    if out.is_symlink():
+        print(f"error: --out: {shown(out)} is a symbolic link; give a folder", file=sys.stderr)
+        return 1
     if out.exists() and not is_run_folder(out):
         print(f"error: --out: {shown(out)} exists and is not a run folder", file=sys.stderr)
         return 1

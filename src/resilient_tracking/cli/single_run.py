@@ -15,6 +15,7 @@ from resilient_tracking.cli.common import (
     MAX_FPS,
     MAX_FRAMES,
     advance,
+    bad_seed,
     load_or_report,
     out_of_range,
     policy_problem,
@@ -64,8 +65,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         except ScenarioError as err:
             print(f"error: --steps: {shown(err, lines=True)}", file=sys.stderr)
             return 1
-    if args.seed is not None and args.seed < 0:
-        print("error: --seed: must be non-negative", file=sys.stderr)
+    if bad_seed(args.seed):
         return 1
 
     from resilient_tracking.runs.folders import check_out_folder, folder_lock
@@ -142,8 +142,9 @@ def _run_into(
         first = invalid.iloc[0]
         print(
             f"warning: {len(invalid)} invalid decision(s) of the policy: {shown(first['detail'])} "
-            f"(first at step {first['step']}, robot {first['robot']}); those robots held "
-            "position (events.parquet, event invalid_decision)",
+            f"(first at step {first['step']}, robot {first['robot']}); the team contained "
+            "them: a robot with a wrong control held position, events or plans it could not "
+            "record were dropped (events.parquet, event invalid_decision)",
             file=sys.stderr,
         )
     return 0

@@ -20,14 +20,17 @@ seed-NNN/``, resumable, a stale run is run again), then summarised in ``OUT/repo
   scenario is won when the 95 % interval of its per-seed differences lies below zero, lost
   when above, tied when it spans zero.
 
-Seeds are ``N`` (1..N), a range ``A-B`` or a list ``a,b,c``. The report's numbers come from
-:mod:`.comparison_stats`, its tables from :mod:`.comparison_tables`.
+Seeds are ``N`` (1..N), a range ``A-B`` or a list ``a,b,c``. Each scenario's label (its section,
+``OUT/runs/<label>``, ``OUT/<label>/figures``) is unique and one safe folder name
+(:mod:`.comparison_labels`). The report's numbers come from :mod:`.comparison_stats`, its tables
+from :mod:`.comparison_tables`.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
@@ -35,6 +38,7 @@ import pandas as pd
 from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments import report_files
 from resilient_tracking.experiments.catalog import Task, Variant
+from resilient_tracking.experiments.comparison_labels import scenario_labels
 from resilient_tracking.experiments.comparison_stats import (
     RATIO_METRIC,
     last_third_ratios,
@@ -89,6 +93,8 @@ class Study:
     by_zone_kind: bool = False
     #: whether each run also computes the posterior Cramér–Rao bound
     bound: bool = False
+    #: the argument each label was made from (:mod:`.comparison_labels`), shown in the report
+    sources: dict[str, str] = field(default_factory=dict)
 
     def tasks(self) -> list[Task]:
         """Every run, validated: one per (scenario, policy, seed), then one per (scenario,
@@ -204,10 +210,8 @@ def make_study(
     if not seeds:
         raise ValueError("--seeds: none given")
     loaded: dict[str, Scenario] = {}
-    for arg in scenario_args:
-        label = Path(arg).stem if Path(arg).suffix in (".yaml", ".yml") else str(arg)
-        if label in loaded:
-            label = f"{label}-{len(loaded) + 1}"
+    labels = scenario_labels(scenario_args)
+    for label, arg in zip(labels, scenario_args, strict=True):
         scenario = builtin_scenarios.load(arg)
         loaded[label] = overridden(scenario, dict(overrides), f"{scenario.name} (with --set)")
     return Study(
@@ -218,6 +222,7 @@ def make_study(
         zone_free=zone_free,
         by_zone_kind=by_zone_kind,
         bound=bound,
+        sources=dict(zip(labels, map(str, scenario_args), strict=True)),
     )
 
 
@@ -255,13 +260,21 @@ def zone_kind_win_rates(runs: pd.DataFrame, study: Study) -> pd.DataFrame:
 
 
 def scenario_section(
-    label: str, tasks: list[Task], out: Path, reference: str | None = None
+    label: str,
+    tasks: list[Task],
+    out: Path,
+    reference: str | None = None,
+    source: str | None = None,
 ) -> tuple[str, pd.DataFrame]:
     """Markdown and per-run rows of one scenario, from its stored runs; draws its figures.
     With a zone-free ``reference`` policy the rows say which runs are the reference
-    (``tag_no_zones``), and the section gives each policy's last-third ratio."""
+    (``tag_no_zones``), and the section gives each policy's last-third ratio. ``source``: the
+    argument the label was made from, said under the heading when it differs."""
     done = [t for t in tasks if is_done(out, t)]
-    header = f"## {label}\n\n{tasks[0].scenario.description}".rstrip()
+    header = f"## {label}"
+    if source is not None and source != label:
+        header += f"\n\nScenario {_code(source)}."
+    header = f"{header}\n\n{tasks[0].scenario.description}".rstrip()
     by_policy: dict[str, list[RunData]] = {}
     rows = []
     for t in done:
@@ -333,7 +346,11 @@ def write_compare_report(study: Study, tasks: list[Task], out: Path, command: st
     sections, frames = [], []
     for label in study.scenarios:
         text, runs = scenario_section(
-            label, [t for t in tasks if t.experiment == label], out, study.zone_free
+            label,
+            [t for t in tasks if t.experiment == label],
+            out,
+            study.zone_free,
+            study.sources.get(label),
         )
         sections.append(text)
         frames.append(runs)
@@ -373,3 +390,15 @@ def write_compare_report(study: Study, tasks: list[Task], out: Path, command: st
     path = write_text_atomic(out / "report.md", "\n".join(lines))
     report_files.seal(out, written)
     return path
+
+
+def _code(text: str) -> str:
+    """``text`` as a Markdown code span (fenced by more backticks than it holds in a row), its
+    unprintable characters escaped."""
+    shown = "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii", "replace")
+        for c in text
+    )
+    fence = "`" * (max((len(run) for run in re.findall("`+", shown)), default=0) + 1)
+    pad = " " if shown.startswith("`") or shown.endswith("`") else ""
+    return f"{fence}{pad}{shown}{pad}{fence}"

@@ -75,6 +75,10 @@ def not_ours(out: Path, wanted: ReportFiles) -> list[Path]:
             found.append(path)
     for name in wanted.folders:
         path = out / name
+        blocked = _blocked_parent(out, path)
+        if blocked is not None:  # a file, or a link that would lead the figures elsewhere
+            found.append(blocked)
+            continue
         if name in folders and path.is_dir() and not path.is_symlink():
             continue
         if path.is_dir() and not path.is_symlink():
@@ -82,6 +86,16 @@ def not_ours(out: Path, wanted: ReportFiles) -> list[Path]:
         elif path.exists() or path.is_symlink():
             found.append(path)
     return found
+
+
+def _blocked_parent(out: Path, path: Path) -> Path | None:
+    """The first folder between ``out`` and ``path`` that exists as something other than a
+    folder, or as a symbolic link (``None`` if there is none)."""
+    for parent in reversed(path.relative_to(out).parents[:-1]):
+        here = out / parent
+        if here.is_symlink() or (here.exists() and not here.is_dir()):
+            return here
+    return None
 
 
 def _is_ours(path: Path, recorded: str | None) -> bool:

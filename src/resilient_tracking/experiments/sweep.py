@@ -211,15 +211,26 @@ def _joblib_results(
     yield from results
 
 
+#: What ``--dask`` needs when ``dask.distributed`` cannot be imported.
+DASK_MISSING = "--dask needs dask.distributed: pip install 'resilient-tracking[cluster]'"
+
+
+def dask_problem() -> str | None:
+    """Why a sweep cannot run on Dask here (:data:`DASK_MISSING`), else ``None``."""
+    try:
+        import dask.distributed  # noqa: F401
+    except ImportError:
+        return DASK_MISSING
+    return None
+
+
 def _dask_results(
     todo: Sequence[Task], address: str, jobs: int
 ) -> Iterator[tuple[str, EpisodeResult | RunFailure]]:
     try:
         from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError as err:  # pragma: no cover - depends on the installed extras
-        raise RuntimeError(
-            "--dask needs dask.distributed: pip install 'resilient-tracking[cluster]'"
-        ) from err
+    except ImportError as err:  # pragma: no cover - the CLI checks first (dask_problem)
+        raise RuntimeError(DASK_MISSING) from err
     cluster = (
         LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
         if address == "local"

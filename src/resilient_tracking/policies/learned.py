@@ -21,13 +21,13 @@ finite is left for the team to contain (the robot holds, with an ``invalid_decis
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, field_validator
 
+from resilient_tracking import plugin_guard
 from resilient_tracking.belief.agent_view import MAX_ZONES, team_views
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.team_belief import TeamBelief
@@ -61,9 +61,10 @@ class CallableParams(Strict):
 
 
 def import_function(path: str) -> ViewFunction:
-    """The object ``package.module:name`` names; ``ValueError`` if it is not callable."""
+    """The object ``package.module:name`` names; ``ValueError`` if it is not callable. The
+    module is imported as a plug-in (:func:`~resilient_tracking.plugin_guard.importing`)."""
     module_name, _, attr = path.partition(":")
-    found = getattr(importlib.import_module(module_name), attr)
+    found = getattr(plugin_guard.importing(module_name), attr)
     if not callable(found):
         raise ValueError(f"{path} is not callable")
     return found  # type: ignore[no-any-return]

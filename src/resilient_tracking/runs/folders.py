@@ -215,9 +215,14 @@ def holds_working_folder(out: Path) -> bool:
 
 def check_out_folder(out: Path, overwrite: bool = False) -> list[str]:
     """The foreign entries of ``out`` (see :func:`foreign_entries`), after refusing with
-    ``FileExistsError`` a path that is not a folder, the current folder or one above it (a run
-    folder is renamed into place, which the folder a process works in cannot be), or foreign
-    entries without ``overwrite``."""
+    ``FileExistsError`` a symbolic link (a run folder is renamed into place, which would replace
+    the link itself), a path that is not a folder, the current folder or one above it (which
+    the folder a process works in cannot be), or foreign entries without ``overwrite``."""
+    if out.is_symlink():
+        raise FileExistsError(
+            f"{out}: is a symbolic link; a run folder is renamed into place, which would "
+            "replace the link: give the folder it points to, or a new folder"
+        )
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"{out}: exists and is not a folder")
     if holds_working_folder(out):

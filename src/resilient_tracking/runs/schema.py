@@ -209,8 +209,8 @@ EVENTS = Table(
             "attack: hazard (the zone's draw), jamming, degradation (announced) or spread (a"
             " teammate's compromised radio passed the zone's compromise on); degraded:"
             " announced or silent; invalid_decision: what was wrong"
-            " (not_finite, out_of_bounds, shape, type, modes); target_suspected: surge, linger"
-            " or zone; else empty",
+            " (not_finite, out_of_bounds, shape, type, modes, events, plans);"
+            " target_suspected: surge, linger or zone; else empty",
         ),
         _c(
             "source",

@@ -28,6 +28,7 @@ from resilient_tracking.models.numpy_twins import all_finite
 from resilient_tracking.observation import TeamObservation
 from resilient_tracking.planning import codegen, codegen_status
 from resilient_tracking.planning.planner import FaultHook
+from resilient_tracking.plugin_guard import contained
 from resilient_tracking.policies.base import Decision
 from resilient_tracking.runs.bound import PositionBound
 from resilient_tracking.runs.manifest import episode_manifest
@@ -224,17 +225,19 @@ def run_episode(
 
     ``fault_hook`` is handed to the planner (see :mod:`resilient_tracking.planning.faults`);
     ``bound``: also compute the posterior Cramér–Rao bound (the ``bound`` table, else
-    empty).
+    empty). A plug-in that exits or raises anything but an ``Exception`` or an interrupt
+    fails the run with :class:`~resilient_tracking.plugin_guard.PluginError` naming it.
     """
     seed = scenario.seed if seed is None else seed
     policy_name = policy or scenario.policy.name
     started = time.perf_counter()
-    stepper = EpisodeStepper(scenario, policy_name, seed, fault_hook, bound=bound)
-    for _ in range(scenario.steps):
-        stepper.sense()
-        stepper.act()
-        if progress is not None:
-            progress(1)
+    with contained("while running"):
+        stepper = EpisodeStepper(scenario, policy_name, seed, fault_hook, bound=bound)
+        for _ in range(scenario.steps):
+            stepper.sense()
+            stepper.act()
+            if progress is not None:
+                progress(1)
     wall = time.perf_counter() - started
     log.info(
         "episode %s/%s seed %d: %d steps in %.2f s",
