@@ -323,6 +323,21 @@ def test_stale_future_and_out_of_order_stamps_are_dropped(domain) -> None:
     }
 
 
+def test_an_unusable_observation_stamped_later_does_not_hold_back_the_next_good_one(
+    domain,
+) -> None:
+    with _InProcess(domain, observation_timeout=1.0) as run:
+        run.send_all_poses()
+        good = run.observation()
+        ahead = stamp_from_ns(time.time_ns() + 200_000_000)  # within the timeout
+        bad = run.observation(measurements=[1.0] * 5, header=msgs.Header(ahead, "world"))
+        run.obs.write(bad)
+        assert run.wait_for(lambda: run.node.dropped == 1)
+        run.obs.write(good)
+        assert run.wait_for(lambda: run.node.steps_done == 1)
+    assert run.result.manifest["transport"]["drops"] == {"invalid": 1}
+
+
 def test_a_robot_whose_poses_stop_holds_while_the_team_plans_for_the_others(domain) -> None:
     listener = DdsNode(domain)
     commands = listener.subscription("/cf3/cmd_full_state", msgs.FullState, default_qos(100))

@@ -184,7 +184,7 @@ class TrackerNode:
         self._holding: str | None = None  # the kind of hold since the last step
         self._heard = -np.inf  # when the last usable observation arrived (monotonic s)
         self._observations = 0  # observations taken (startup is over with the first, and poses)
-        self._newest_obs: int | None = None  # stamp (ns) of the newest observation taken
+        self._newest_obs: int | None = None  # stamp (ns) of the last observation used
 
         s = settings
         self.node = DdsNode(s.domain_id)
@@ -362,11 +362,11 @@ class TrackerNode:
 
     def _check_order(self, msg: msgs.TeamObservation, wall_ns: int) -> None:
         """Running free: an observation's stamp must be within ``observation_timeout`` of this
-        computer's clock and after the newest one taken."""
+        computer's clock and after that of the last observation used (not merely taken: an
+        unusable one stamped later must not make the next good one look out of order)."""
         stamp = stamp_ns(msg.header.stamp)
         timeout = self.settings.observation_timeout
         check_stamp(stamp, wall_ns, self._newest_obs, timeout, OBSERVATION_TOPIC)
-        self._newest_obs = stamp
 
     def _process_next(self, now: float) -> bool:
         """Use the next observation; returns whether a step was taken."""
@@ -393,15 +393,16 @@ class TrackerNode:
             return False
         positions = np.array([b.latest for b in self.robots])
         # running late, only the newest usable observation counts; older ones are passed over
-        while self._pending:
-            msg = self._pending.pop()
+        waiting = sorted(self._pending, key=lambda m: stamp_ns(m.header.stamp), reverse=True)
+        self._pending.clear()
+        for msg in waiting:
             obs = self._observation(msg, positions)
             if obs is not None:
-                self._pending.clear()
                 break
         else:
             return False  # none usable: as if none came (no observation for long: hold)
         self._heard = now
+        self._newest_obs = stamp_ns(msg.header.stamp)
         lost = {
             i for i, b in enumerate(self.robots) if now - b.received_at > self.settings.pose_timeout
         }
