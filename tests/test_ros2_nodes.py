@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 from rosbags.rosbag2 import Reader
 
 from helpers import SCENARIOS, shipped
@@ -29,7 +30,7 @@ from resilient_tracking.ros2 import msgs
 from resilient_tracking.ros2.bag import typestore
 from resilient_tracking.ros2.convert import observation_to_msg, pose_stamped, stamp_from_ns
 from resilient_tracking.ros2.topics import OBSERVATION_TOPIC, NodeSettings
-from resilient_tracking.ros2.tracker_node import TrackerNode
+from resilient_tracking.ros2.tracker_node import StartupTimeout, TrackerNode
 from resilient_tracking.ros2.transport import DdsNode, default_qos, loopback_config, take
 from resilient_tracking.runs.records import EpisodeResult
 from resilient_tracking.runs.schema import REPRODUCIBLE
@@ -404,8 +405,6 @@ def signal_handlers() -> Iterator[None]:
 def test_the_node_stops_after_the_startup_timeout_naming_what_is_missing(
     domain, tmp_path: Path, capsys, signal_handlers
 ) -> None:
-    feed = DdsNode(domain)
-    feed.publisher("/cf01/pose", msgs.PoseStamped, default_qos())  # named otherwise than cf1
     scenario = str(SCENARIOS / "sensing-temp.yaml")
     out = tmp_path / "N"
     args = ["--startup-timeout", "0.5", "--give-up", "5", "--domain", str(domain), "-q"]
@@ -415,10 +414,29 @@ def test_the_node_stops_after_the_startup_timeout_naming_what_is_missing(
     assert printed.err.splitlines() == [
         f"error: --startup-timeout: nothing to track with after 0.5 s on DDS domain {domain}: "
         "no observation on /rtrack/observation (is rtrack world running?); "
-        "no pose on /cf1/pose, /cf2/pose, /cf3/pose; poses were published for cf01, which this "
-        "scenario does not have (see --robot-prefix and --target-prefix)"
+        "no pose on /cf1/pose, /cf2/pose, /cf3/pose"
     ]
     assert not out.exists()
+
+
+def test_the_startup_error_names_poses_published_under_other_names(domain) -> None:
+    scenario = shipped("sensing-temp")
+    settings = NodeSettings.for_scenario(scenario, domain_id=domain, startup_timeout=0.3)
+    initial, _ = start_truth(scenario, 1)
+    node = TrackerNode(scenario, 1, "failure_aware", settings, initial)
+    feed = DdsNode(domain)
+    feed.publisher("/cf01/pose", msgs.PoseStamped, default_qos())  # named otherwise than cf1
+    announced = BuiltinDataReader(node.node.participant, BuiltinTopicDcpsPublication)
+    end = time.monotonic() + 10.0
+    while not any(p.topic_name == "rt/cf01/pose" for p in announced.read(N=64)):
+        assert time.monotonic() < end, "the publisher was not discovered"
+        time.sleep(0.01)
+    with pytest.raises(StartupTimeout) as stopped:
+        node.run()
+    assert str(stopped.value).endswith(
+        "no pose on /cf1/pose, /cf2/pose, /cf3/pose; poses were published for cf01, which this "
+        "scenario does not have (see --robot-prefix and --target-prefix)"
+    )
 
 
 def test_without_the_extra_the_verbs_say_how_to_install_it(monkeypatch, capsys) -> None:
