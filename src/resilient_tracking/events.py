@@ -34,6 +34,8 @@ EventName = Literal[
     "degradation_detected",
     "solver_fallback",
     "invalid_decision",
+    "pose_lost",
+    "pose_regained",
     "degraded",
     "degradation_ended",
 ]
@@ -72,7 +74,8 @@ class Event:
     source: str = ""
     #: the rung a plan fell back to (``safe`` or a simpler program)
     fallback: str = ""
-    #: what the safe action did for the robot: ``escape`` or ``hold``
+    #: what the safe action did for the robot: ``escape`` or ``hold``; ``hold`` for a robot
+    #: that is held (an invalid decision, a lost pose)
     action: str = ""
     #: the planner's status that led to a fallback
     status: str = ""
@@ -209,6 +212,19 @@ class Event:
         ``out_of_bounds``, ``shape``, ``type`` or ``modes``); the robot held its position."""
         detail = f"policy {policy}: {message}"
         return cls(step, robot, "invalid_decision", detail, cause=problem, action="hold")
+
+    @classmethod
+    def pose_lost(cls, step: int, robot: int, silent: float, timeout: float) -> Event:
+        """On robots: no pose of ``robot`` for ``silent`` seconds, over the pose timeout
+        ``timeout``; it holds its last seen position while the team plans for the others."""
+        detail = f"no pose for {silent:.2f} s (pose timeout {timeout:g} s): holds position"
+        return cls(step, robot, "pose_lost", detail, action="hold")
+
+    @classmethod
+    def pose_regained(cls, step: int, robot: int) -> Event:
+        """On robots: poses of ``robot`` arrive again after a ``pose_lost``; it is planned for
+        again."""
+        return cls(step, robot, "pose_regained", "poses arrive again")
 
     @classmethod
     def degraded(

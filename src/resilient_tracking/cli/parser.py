@@ -39,10 +39,22 @@ def _add_ros2_parsers(sub: argparse._SubParsersAction) -> None:  # type: ignore[
         p.add_argument("--altitude", type=float, default=0.5, help="flight altitude, m")
         p.add_argument("--frame", default="world", help="frame_id of poses and setpoints")
         p.add_argument("--domain", type=int, default=None, help="DDS domain (ROS_DOMAIN_ID)")
-        p.add_argument("--pose-timeout", type=float, default=0.5, help="stale pose, s")
+        p.add_argument(
+            "--pose-timeout",
+            type=float,
+            default=0.5,
+            help="a robot with no pose for this long holds; running free, the node drops "
+            "messages stamped this far from its clock, s",
+        )
         p.add_argument("--observation-timeout", type=float, default=1.0, help="hold after, s")
         p.add_argument("--give-up", type=float, default=30.0, help="stop after silence, s")
-        p.add_argument("--startup-timeout", type=float, default=60.0, help="discovery wait, s")
+        p.add_argument(
+            "--startup-timeout",
+            type=float,
+            default=60.0,
+            help="node: stop (exit 1) when no observation or no pose of some robot came within "
+            "this; world in lock-step or mocap: wait for the tracker or poses this long, s",
+        )
         p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
         p.set_defaults(func=func)
         if verb == "node":

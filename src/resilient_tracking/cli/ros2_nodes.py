@@ -80,13 +80,14 @@ def _stop_on_signals() -> object:
 
 def cmd_node(args: argparse.Namespace) -> int:
     """``rtrack node``: run the team as a ROS 2-compatible tracker node (docs/robots.md) and write
-    its run folder; exit status 0 when every step ran, 3 when it stopped early, 1 for bad input."""
+    its run folder; exit status 0 when every step ran, 3 when it stopped early, 1 for bad input
+    or when nothing to track with arrived within ``--startup-timeout`` (nothing written)."""
     setup = node_setup(args)
     if setup is None:
         return 1
     scenario, seed, settings = setup
     from resilient_tracking.ros2.bag import BagRecorder
-    from resilient_tracking.ros2.tracker_node import TrackerNode
+    from resilient_tracking.ros2.tracker_node import StartupTimeout, TrackerNode
     from resilient_tracking.runs.records import is_run_folder, write_run
 
     why = policy_problem(args.policy)
@@ -134,6 +135,9 @@ def cmd_node(args: argparse.Namespace) -> int:
     try:
         with tqdm(total=scenario.steps, desc="node", unit="step", disable=args.quiet) as bar:
             result = node.run(stop=stop, progress=lambda n: bar.update(n))  # type: ignore[arg-type]
+    except StartupTimeout as err:
+        print(f"error: --startup-timeout: {shown(err)}", file=sys.stderr)
+        return 1
     finally:
         if bag is not None:
             bag.close()

@@ -1,8 +1,9 @@
 """Between the team's arrays and ROS 2 messages, checking every received field.
 
 A received message that does not fit the scenario (wrong sizes, non-finite poses, unknown
-labels) raises :class:`MessageError` naming the field; the nodes log it and drop the message.
-Numbers travel as float64, so a lock-step run over DDS sees exactly the arrays of a simulated one.
+labels, a time stamp out of place) raises :class:`MessageError` naming the field and the reason;
+the nodes log it and drop the message. Numbers travel as float64, so a lock-step run over DDS
+sees exactly the arrays of a simulated one.
 """
 
 from __future__ import annotations
@@ -20,7 +21,13 @@ CAUSES = ("hazard", "jamming", "degradation", "spread")
 
 
 class MessageError(ValueError):
-    """A received message that cannot be used; the message names the field."""
+    """A received message that cannot be used; the message names the field, ``reason`` says
+    why in one word (the key it is counted under in a run's manifest): ``not_finite``,
+    ``invalid`` (does not fit the scenario), ``stale``, ``future`` or ``out_of_order``."""
+
+    def __init__(self, message: str, reason: str = "invalid"):
+        super().__init__(message)
+        self.reason = reason
 
 
 # --------------------------------------------------------------------------- time stamps
@@ -41,6 +48,33 @@ def step_stamp(step: int, dt: float) -> msgs.Time:
     return stamp_from_ns(round(step * dt * 1e9))
 
 
+def check_stamp(stamp: int, now: int, newest: int | None, tolerance: float, name: str) -> None:
+    """Raise :class:`MessageError` unless a message stamped ``stamp`` (ns) can be used at wall
+    time ``now`` (ns) on a topic whose newest message taken so far was stamped ``newest``:
+    stamped more than ``tolerance`` seconds before ``now`` (``stale``) or after it (``future``:
+    a clock that is off, which would otherwise make every later message look out of order),
+    or not after ``newest`` (``out_of_order``: a late or repeated message)."""
+    limit = round(tolerance * 1e9)
+    if stamp < now - limit:
+        age = (now - stamp) / 1e9
+        raise MessageError(
+            f"{name}: header.stamp is {age:.3g} s old (over {tolerance:g} s)", "stale"
+        )
+    if stamp > now + limit:
+        ahead = (stamp - now) / 1e9
+        raise MessageError(
+            f"{name}: header.stamp is {ahead:.3g} s ahead of this computer's clock "
+            f"(over {tolerance:g} s)",
+            "future",
+        )
+    if newest is not None and stamp <= newest:
+        raise MessageError(
+            f"{name}: header.stamp is not after the newest one taken ({(newest - stamp) / 1e9:.3g} "
+            "s older or the same)",
+            "out_of_order",
+        )
+
+
 # --------------------------------------------------------------------------- poses
 
 
@@ -57,7 +91,9 @@ def pose_xy(msg: msgs.PoseStamped, name: str) -> np.ndarray:
     """The horizontal position of a pose; the tracker works in the plane (paper's model)."""
     p = msg.pose.position
     if not (math.isfinite(p.x) and math.isfinite(p.y) and math.isfinite(p.z)):
-        raise MessageError(f"{name}: pose.position is not finite ({p.x}, {p.y}, {p.z})")
+        raise MessageError(
+            f"{name}: pose.position is not finite ({p.x}, {p.y}, {p.z})", "not_finite"
+        )
     return np.array([p.x, p.y], dtype=float)
 
 
@@ -123,6 +159,8 @@ def observation_from_msg(
             f"observation.n_robots/n_targets: expected {m}x{n_targets}, "
             f"got {msg.n_robots}x{msg.n_targets}"
         )
+    if not math.isfinite(msg.time):
+        raise MessageError(f"observation.time: not finite ({msg.time})")
     size = m * n_targets * dim
     z = np.array(_sized(msg.measurements, size, "measurements"), dtype=np.float64)
     if np.isinf(z).any():
@@ -134,6 +172,11 @@ def observation_from_msg(
         sigma = np.array(a.sigma, dtype=float).reshape(2, 2)
         if not (np.isfinite(a.mu).all() and np.isfinite(sigma).all() and math.isfinite(a.size)):
             raise MessageError(f"observation.attacks[{i}]: mu, sigma and size must be finite")
+        if a.size <= 0 or sigma[0, 1] != sigma[1, 0] or np.linalg.eigvalsh(sigma)[0] <= 0:
+            raise MessageError(
+                f"observation.attacks[{i}]: size must be positive and sigma symmetric positive "
+                "definite"
+            )
         clue = ZoneClue(
             zone_id=int(a.zone_id),
             kind=_label(a.kind, KINDS, f"attacks[{i}].kind"),  # type: ignore[arg-type]
@@ -156,19 +199,25 @@ def observation_from_msg(
     comm_p = _sized(msg.comm_persistence, m, "comm_persistence")
     for i, p in enumerate(sensing_p + comm_p):
         _label(p, PERSISTENCES, f"persistence[{i}]")
-    return TeamObservation(
-        step=int(msg.step),
-        time=float(msg.time),
-        positions=np.array(positions, dtype=float),
-        measurements=z.reshape(m, n_targets, dim),
-        sensing_ok=np.array(_sized(msg.sensing_ok, m, "sensing_ok"), dtype=np.bool_),
-        comm_ok=np.array(_sized(msg.comm_ok, m, "comm_ok"), dtype=np.bool_),
-        sensing_persistence=tuple(sensing_p),
-        comm_persistence=tuple(comm_p),
-        links=np.array(_sized(msg.links, m * m, "links"), dtype=np.bool_).reshape(m, m),
-        attacks=tuple(attacks),
-        recoveries=tuple(recoveries),  # type: ignore[arg-type]
-    )
+    sensing_ok = np.array(_sized(msg.sensing_ok, m, "sensing_ok"), dtype=np.bool_)
+    comm_ok = np.array(_sized(msg.comm_ok, m, "comm_ok"), dtype=np.bool_)
+    links = np.array(_sized(msg.links, m * m, "links"), dtype=np.bool_).reshape(m, m)
+    try:
+        return TeamObservation(
+            step=int(msg.step),
+            time=float(msg.time),
+            positions=np.array(positions, dtype=float),
+            measurements=z.reshape(m, n_targets, dim),
+            sensing_ok=sensing_ok,
+            comm_ok=comm_ok,
+            sensing_persistence=tuple(sensing_p),
+            comm_persistence=tuple(comm_p),
+            links=links,
+            attacks=tuple(attacks),
+            recoveries=tuple(recoveries),  # type: ignore[arg-type]
+        )
+    except ValueError as err:  # what an observation checks itself (symmetric links...)
+        raise MessageError(f"observation: {err}") from None
 
 
 # --------------------------------------------------------------------------- commands

@@ -32,13 +32,16 @@ class NodeSettings:
     altitude: float = 0.5
     frame: str = "world"
     domain_id: int | None = None
-    #: a pose older than this (s) counts as stale: hold position
+    #: a robot with no pose for this long (s) holds position while the team plans for the
+    #: others; running free, the tracker drops a pose stamped more than this from its clock
     pose_timeout: float = 0.5
-    #: no observation for this long (s): hold position
+    #: no observation for this long (s): hold position; running free, the tracker drops an
+    #: observation stamped more than this from its clock
     observation_timeout: float = 1.0
     #: no observation for this long (s): give up and write what was recorded
     give_up: float = 30.0
-    #: lock-step: how long to wait for the other node to appear (s)
+    #: the tracker: stop when no observation, or no pose of some robot, came within this (s);
+    #: the world: how long to wait for the tracker (lock-step) or the poses (mocap)
     startup_timeout: float = 60.0
     #: running free: the share of the control period, from taking an observation, by which
     #: a league planned as sub-teams must be planned; its sub-teams not planned by then coast

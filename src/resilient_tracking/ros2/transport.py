@@ -19,7 +19,15 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds._clayer import ddspy_take
+from cyclonedds.core import (
+    DDSException,
+    InstanceState,
+    ReadCondition,
+    SampleState,
+    ViewState,
+    WaitSet,
+)
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.pub import DataWriter
@@ -32,6 +40,7 @@ log = logging.getLogger(__name__)
 
 #: Plain CDR (XCDR1), the representation ROS 2's rmw layers use.
 _CDR = Policy.DataRepresentation(use_cdrv0_representation=True)
+_ANY_SAMPLE = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
 def dds_topic(ros_topic: str) -> str:
@@ -147,13 +156,34 @@ class DdsNode:
             time.sleep(0.02)
 
 
-def take(reader: DataReader, limit: int = 256) -> list[Any]:
-    """All samples waiting in ``reader`` (valid data only), oldest first."""
-    return [
-        s
-        for s in reader.take(N=limit)
-        if getattr(s, "sample_info", None) is None or s.sample_info.valid_data
-    ]
+def take(
+    reader: DataReader,
+    limit: int = 256,
+    undecodable: Callable[[Exception], object] | None = None,
+) -> list[Any]:
+    """All samples waiting in ``reader`` (valid data only), oldest first, each decoded on its own.
+
+    cyclonedds checks the CDR framing of what it receives (truncated or garbled bytes never get
+    this far), but not everything in it: a string that is not UTF-8 passes and cannot be
+    decoded. ``DataReader.take`` decodes a batch in one go, so such a sample raises and loses
+    the batch; here it is handed to ``undecodable`` (logged when that is None) and the others
+    are kept."""
+    got = ddspy_take(reader._ref, _ANY_SAMPLE, limit)  # what DataReader.take calls
+    if isinstance(got, int):
+        raise DDSException(got, f"Occurred while taking data in {reader!r}")
+    decode = reader.topic.data_type.deserialize
+    samples = []
+    for data, info in got:
+        if not info.valid_data:
+            continue
+        try:
+            samples.append(decode(data))
+        except Exception as err:  # anything a peer sends must not stop the loop
+            if undecodable is None:
+                log.warning("dropped an undecodable sample: %s: %s", type(err).__name__, err)
+            else:
+                undecodable(err)
+    return samples
 
 
 class BackgroundWriter:

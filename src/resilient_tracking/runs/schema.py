@@ -224,7 +224,8 @@ EVENTS = Table(
             "action",
             "str",
             "",
-            "solver_fallback to safe: escape or hold; invalid_decision: hold; else empty",
+            "solver_fallback to safe: escape or hold; invalid_decision and pose_lost: hold;"
+            " else empty",
         ),
         _c("status", "str", "", "solver_fallback: the planner's status, else empty"),
     ),
