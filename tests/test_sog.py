@@ -271,7 +271,8 @@ def test_the_scenarios_solver_choice_holds_for_sog(solver, first):
 def test_rtrack_run_with_sog_writes_the_run_folder(tmp_path, capsys):
     out = tmp_path / "run"
     path = str(SCENARIOS / "sensing-temp.yaml")
-    assert main(["run", path, "--policy", "sog", "--steps", "150", "--out", str(out), "-q"]) == 0
+    command = ["run", path, "--team", "sog", "--policy", "sog", "--steps", "150"]
+    assert main([*command, "--out", str(out), "-q"]) == 0
     assert "wrote" in capsys.readouterr().out
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["policy"] == "sog"
@@ -302,7 +303,7 @@ def _recorded_inputs(name: str, seed: int, steps: int) -> list[tuple[tuple[int, 
             found.append((members, q))
             return super().plan_sog(members, q)
 
-    s = shipped(name).with_overrides(steps=steps)
+    s = shipped(name).with_overrides(steps=steps).with_team("sog")
     import resilient_tracking.policies.sog as sog_module
 
     original = sog_module.SogPlanner

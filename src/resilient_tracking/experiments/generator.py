@@ -279,7 +279,9 @@ def _centre(
 
 def team_paths(data: dict[str, Any], name: str) -> np.ndarray:
     """Robot positions ``(steps, robots, 2)`` of the vanilla team on ``data`` without zones."""
-    free = parse_scenario({**data, "zones": [], "policy": {"name": "vanilla"}}, name)
+    free = parse_scenario(
+        {**data, "team": "vanilla", "zones": [], "policy": {"name": "vanilla"}}, name
+    )
     robots = run_episode(free).tables["robots"]
     n = len(free.robots)
     xy = np.stack([robots["x"].to_numpy(), robots["y"].to_numpy()], axis=1)
