@@ -24,7 +24,7 @@ from benchmarks.common import machine, save, table
 
 SCENARIOS = (("evasive-open", "3×3"), ("soak-20x20", "20×20"))
 ESTIMATORS: dict[str, dict[str, Any]] = {
-    "ekf": {},
+    "ekf": {"type": "ekf"},
     "imm": {"type": "imm"},
     "adaptive": {"type": "adaptive"},
 }
@@ -35,10 +35,13 @@ def belief_ms(name: str, estimator: dict[str, Any], steps: int) -> float:
     from resilient_tracking import builtin_scenarios
     from resilient_tracking.belief.team_belief import TeamBelief
     from resilient_tracking.scenario import load_scenario
+    from resilient_tracking.scenario.world_specs import EstimatorSpec
     from resilient_tracking.sim.episode import EpisodeStepper
 
     scenario = load_scenario(builtin_scenarios.path(name))
-    section = {**scenario.estimator.model_dump(exclude={"type"}), **estimator}
+    # the scenario's initial uncertainty (fields every estimator has), this estimator's own
+    common = set(EstimatorSpec.model_fields) - {"type"}
+    section = {**scenario.estimator.model_dump(include=common), **estimator}
     scenario = scenario.with_overrides(steps=steps, estimator=section)
     stepper = EpisodeStepper(scenario, "failure_aware", seed=1)
     spent = [0.0]

@@ -168,11 +168,14 @@ class ExtendedKalmanFilter:
     ) -> tuple[TargetEstimate, _Linearisation]:
         """The updated estimate, and what the diagnostics of :meth:`update_detailed` need: at
         the predicted positions, then (iterated EKF) at each update's result."""
-        updated, lin = self._linearised_at(est, robot_positions, measurements, None, noise_scale)
-        for _ in range(self.iterations - 1):
-            at = updated.mean[:, :2]
-            updated, lin = self._linearised_at(est, robot_positions, measurements, at, noise_scale)
-        return updated, lin
+        at = None
+        for _ in range(self.iterations):
+            lin, gain, info = self._linearised_at(
+                est, robot_positions, measurements, at, noise_scale
+            )
+            mean = est.mean + (gain @ lin.b[..., None])[..., 0]
+            at = mean[:, :2]  # (only the last linearisation's covariance is formed)
+        return TargetEstimate.trusted(mean, _joseph(est.cov, gain, info)), lin
 
     def _linearised_at(
         self,
@@ -181,10 +184,11 @@ class ExtendedKalmanFilter:
         measurements: FloatArray,
         at: FloatArray | None,
         noise_scale: FloatArray | None = None,
-    ) -> tuple[TargetEstimate, _Linearisation]:
-        """The update of ``est`` with the measurements linearised at the target positions
-        ``at`` ``(N, 2)`` (``None``: at the predicted ones, the paper's EKF), robot ``k``'s
-        noise variance scaled by ``noise_scale[k]`` (``None``: nominal)."""
+    ) -> tuple[_Linearisation, FloatArray, FloatArray]:
+        """The measurements linearised at the target positions ``at`` ``(N, 2)`` (``None``: at
+        the predicted ones, the paper's EKF), robot ``k``'s noise variance scaled by
+        ``noise_scale[k]`` (``None``: nominal); the update's gain ``F`` ``(N, 4, 2)`` and
+        position information ``J`` ``(N, 2, 2)``: the updated mean is ``ŷ + F b``."""
         n = est.mean.shape[0]  # (the number of targets)
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
@@ -229,20 +233,9 @@ class ExtendedKalmanFilter:
 
         # With W = (I + J P_pp)⁻¹ (always invertible, J may be singular):
         #   (P⁻¹ + Eᵀ J E)⁻¹ Eᵀ = P Eᵀ W =: F,  ŷ⁺ = ŷ + F b,  stacked gain K with K H = F J E.
-        # The covariance is then formed in Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, where
-        # K R Kᵀ = F J Fᵀ: a sum of congruences, so it stays positive definite numerically.
         m = _EYE2 + info @ cov[:, :2, :2]
         f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
-        new_mean = mean + (f @ b[..., None])[..., 0]
-        f_info = f @ info
-        # I − KH, KH = [F J, 0]: the identity's last two columns as they are (1 − 0 and 0 − 0
-        # are exact), the first two I − F J
-        i_kh = _eye4_stack(n).copy()
-        np.subtract(_EYE4[:, :2], f_info, out=i_kh[:, :, :2])
-        joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f_info @ f.swapaxes(1, 2)
-        new_cov = _symmetrize(joseph)
-        updated = TargetEstimate.trusted(new_mean, new_cov)
-        return updated, _Linearisation(hjac, var, valid, innov, rinv, b)
+        return _Linearisation(hjac, var, valid, innov, rinv, b), f, info
 
     def update_detailed(
         self,
@@ -303,6 +296,19 @@ def _all_true(k: int, n: int) -> NDArray[np.bool_]:
     valid = np.ones((k, n), dtype=bool)
     valid.flags.writeable = False
     return valid
+
+
+def _joseph(cov: FloatArray, f: FloatArray, info: FloatArray) -> FloatArray:
+    """The updated covariance in Joseph form ``(I − KH) P (I − KH)ᵀ + K R Kᵀ`` from the gain
+    ``F`` and information ``J`` of :meth:`ExtendedKalmanFilter._linearised_at`: ``KH = [F J, 0]``
+    and ``K R Kᵀ = F J Fᵀ``, a sum of congruences, so it stays positive definite numerically."""
+    f_info = f @ info
+    # I − KH: the identity's last two columns as they are (1 − 0 and 0 − 0 are exact), the first
+    # two I − F J
+    i_kh = _eye4_stack(cov.shape[0]).copy()
+    np.subtract(_EYE4[:, :2], f_info, out=i_kh[:, :, :2])
+    joseph = i_kh @ cov @ i_kh.swapaxes(1, 2) + f_info @ f.swapaxes(1, 2)
+    return _symmetrize(joseph)
 
 
 def _symmetrize(cov: FloatArray) -> FloatArray:
