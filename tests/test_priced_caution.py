@@ -104,6 +104,14 @@ def test_a_permanent_failure_of_one_of_equal_sensors_at_the_start_keeps_the_pape
     assert eps == pytest.approx(EPS1, rel=1e-6)
 
 
+def test_reading_the_papers_levels_as_set_for_a_shorter_failure_prices_permanent_ones_higher():
+    # D̄ = ½: a permanent failure of one of equal sensors costs twice what the levels are set for
+    (eps,), _ = priced_levels(guard(reference_share=0.5), [zone()], observation(step=0))
+    assert eps == pytest.approx(EPS1 / 2, rel=1e-6)
+    ratio = guard(reference_share=0.5).cost_ratio(zone(persistence="temporary"), False, 1 / 3)
+    assert ratio == pytest.approx(2 * 10 / 300)
+
+
 def test_a_permanent_loss_is_never_priced_below_the_papers_level():
     # late in the mission, and for a robot that adds less than an equal share now
     (late,), _ = priced_levels(guard(), [zone()], observation(step=290))

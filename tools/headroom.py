@@ -91,6 +91,7 @@ CANDIDATES: dict[str, dict[str, Any]] = {
     "default": {"team": "default"},
     "evidence": _ROUTE | {"estimator.type": "adaptive", "estimator.on_evidence": True},
     "default-redundancy": {"team": "default", "guards.priced.information_share": False},
+    "default-permanent-x2": {"team": "default", "guards.priced.reference_share": 0.5},
     "beyond": {"team": "beyond"},
 }
 
@@ -104,6 +105,12 @@ def arms() -> dict[str, Variant]:
     }
     for team in BASELINES:
         out[team] = team_arm(team)
+    # the paper's team as the paper's experiments run it: its settings over what the file says,
+    # since a generated suite's files name the route program
+    paper = out["paper"]
+    out["paper"] = Variant(
+        paper.label, paper.policy, dict(get_team("paper").settings), tags=paper.tags
+    )
     return out
 
 
@@ -127,12 +134,21 @@ def cases() -> list[tuple[str, Scenario, int]]:
     return found
 
 
-def tasks(chosen: Iterable[str] | None = None) -> list[Task]:
-    """Every run of the measurement (only the arms ``chosen``, if given)."""
+def tasks(chosen: Iterable[str] | None = None, suites: Iterable[str] | None = None) -> list[Task]:
+    """Every run of the measurement (only the arms ``chosen`` and the ``suites``, if given)."""
     table = arms()
     labels = list(chosen or table)
+    unknown = sorted(set(labels) - set(table))
+    if unknown:
+        raise SystemExit(f"--arms: unknown arm(s) {', '.join(unknown)}; known: {', '.join(table)}")
     out = []
-    for suite, scenario, seeds in cases():
+    picked = cases()
+    if suites is not None:
+        known = {suite for suite, _, _ in picked}
+        if set(suites) - known:
+            raise SystemExit(f"--suites: unknown suite(s); known: {', '.join(sorted(known))}")
+        picked = [case for case in picked if case[0] in set(suites)]
+    for suite, scenario, seeds in picked:
         for label in labels:
             arm = table[label]
             variant = Variant(
@@ -290,13 +306,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("docs/results"))
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--arms", nargs="*", help="only these arms (default: all)")
+    parser.add_argument("--suites", nargs="*", help="only these suites (default: all)")
     parser.add_argument("--report-only", action="store_true", help="summarise what is stored")
     parser.add_argument(
         "--also", nargs="*", type=Path, default=[], help="headroom.csv files of other runs to add"
     )
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    runs = tasks(args.arms)
+    runs = tasks(args.arms, args.suites)
     if not args.report_only:
         done = [0]
 

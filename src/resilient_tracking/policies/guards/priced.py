@@ -3,10 +3,10 @@
 The paper holds every sensing zone's keep-out row (eq. 7c) at one risk level ε1 and every comm
 zone's (eq. 7d) at ε2, whatever the failure would cost. This guard scales each row's level by
 the expected cost of the failure its zone would cause to the robots of the league near it,
-relative to the cost the paper's levels are set for — the permanent loss of one of ``M``
-equally useful sensors::
+relative to the cost the paper's levels are set for — the loss of one of ``M`` equally useful
+sensors for a share ``D̄`` of the mission, by default the rest of it::
 
-    ρ_il = φ_l · max(1, M · v_i) · D_l        ε_il = clip(ε / ρ_il, ε / ρ_max, ε_max)
+    ρ_il = φ_l · max(1, M · v_i) · D_l / D̄        ε_il = clip(ε / ρ_il, ε / ρ_max, ε_max)
 
 * ``φ_l``: what the failure takes: 1 for a failure, ``degrade_fraction`` for a zone whose
   attacks the team felt as a degradation (the capability still works, worse);
@@ -20,11 +20,15 @@ equally useful sensors::
   (its eq. 7d rows also keep a league off a permanent comm zone's hazard); for a temporary one,
   the mean length of the temporary failures of that kind the team has seen (starting from
   ``temporary_steps``) over the mission's length ``T`` (the team's ``mission_steps``, else
-  ``horizon``).
+  ``horizon``);
+* ``D̄`` (``reference_share``): the persistence the paper's levels are taken to be set for,
+  1 (a permanent failure). The paper sets one ``ε1`` and one ``ε2`` for its temporary and
+  permanent experiments alike; ``D̄ = ½`` reads them as set for their mean persistence, which
+  prices a permanent failure twice as high (measured in docs/caution.md, not the default).
 
 A league's row takes the highest cost of the robots near its zone (within ``reach`` of the
 keep-out disc), since one row holds for the whole league. With ``ρ = 1`` — equal sensors, a
-permanent failure — the levels are the paper's.
+failure lasting ``D̄`` of the mission — the levels are the paper's.
 """
 
 from __future__ import annotations
@@ -71,6 +75,16 @@ class PricedCautionParams(GuardParams):
         le=MAX_STEP_COUNT,
         description="Mission length T when the team is not told it (TeamConfig.mission_steps).",
         json_schema_extra={"unit": "steps"},
+    )
+    reference_share: float = Field(
+        1.0,
+        gt=0,
+        le=1,
+        description=(
+            "D̄: the share of the mission a failure lasts for which the paper's risk levels "
+            "are taken to be set; 1: a permanent failure."
+        ),
+        json_schema_extra={"unit": "fraction"},
     )
     max_ratio: float = Field(
         10.0,
@@ -166,7 +180,7 @@ class PricedCautionGuard(Guard):
         horizon = self.config.mission_steps or self.params.horizon
         lasts = 1.0 if persistent else min(self.temporary_length(zone.kind) / horizon, 1.0)
         share = self.params.degrade_fraction if zone.zone_id in self._degrading else 1.0
-        return share * max(1.0, self.config.n_robots * value) * lasts
+        return share * max(1.0, self.config.n_robots * value) * lasts / self.params.reference_share
 
     def price_rows(
         self,
