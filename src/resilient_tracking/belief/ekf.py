@@ -148,8 +148,7 @@ class ExtendedKalmanFilter:
         ``J`` the position information of the update.
         """
         estimate, lin = self._linearised(est, robot_positions, measurements, noise_scale)
-        hjac, var, valid, innov, rinv, b = lin
-        info = np.einsum("knai,kna,knaj->nij", hjac, rinv, hjac)
+        hjac, var, valid, innov, rinv, b, info = lin
         _, logdet_m = np.linalg.slogdet(_EYE2 + info @ est.cov[:, :2, :2])
         logdet_r = np.log(np.where(valid[..., None], var, 1.0)).sum(axis=(0, 2))
         quad = np.einsum("kna,kna,kna->n", innov, rinv, innov) - np.einsum(
@@ -170,12 +169,10 @@ class ExtendedKalmanFilter:
         the predicted positions, then (iterated EKF) at each update's result."""
         at = None
         for _ in range(self.iterations):
-            lin, gain, info = self._linearised_at(
-                est, robot_positions, measurements, at, noise_scale
-            )
+            lin, gain = self._linearised_at(est, robot_positions, measurements, at, noise_scale)
             mean = est.mean + (gain @ lin.b[..., None])[..., 0]
             at = mean[:, :2]  # (only the last linearisation's covariance is formed)
-        return TargetEstimate.trusted(mean, _joseph(est.cov, gain, info)), lin
+        return TargetEstimate.trusted(mean, _joseph(est.cov, gain, lin.info)), lin
 
     def _linearised_at(
         self,
@@ -184,11 +181,11 @@ class ExtendedKalmanFilter:
         measurements: FloatArray,
         at: FloatArray | None,
         noise_scale: FloatArray | None = None,
-    ) -> tuple[_Linearisation, FloatArray, FloatArray]:
+    ) -> tuple[_Linearisation, FloatArray]:
         """The measurements linearised at the target positions ``at`` ``(N, 2)`` (``None``: at
         the predicted ones, the paper's EKF), robot ``k``'s noise variance scaled by
-        ``noise_scale[k]`` (``None``: nominal); the update's gain ``F`` ``(N, 4, 2)`` and
-        position information ``J`` ``(N, 2, 2)``: the updated mean is ``ŷ + F b``."""
+        ``noise_scale[k]`` (``None``: nominal), and the update's gain ``F`` ``(N, 4, 2)``: the
+        updated mean is ``ŷ + F b``."""
         n = est.mean.shape[0]  # (the number of targets)
         robots = np.asarray(robot_positions, dtype=float).reshape(-1, 2)
         k = robots.shape[0]
@@ -235,7 +232,7 @@ class ExtendedKalmanFilter:
         #   (P⁻¹ + Eᵀ J E)⁻¹ Eᵀ = P Eᵀ W =: F,  ŷ⁺ = ŷ + F b,  stacked gain K with K H = F J E.
         m = _EYE2 + info @ cov[:, :2, :2]
         f = np.linalg.solve(m.swapaxes(1, 2), cov[:, :2, :]).swapaxes(1, 2)  # (N, 4, 2)
-        return _Linearisation(hjac, var, valid, innov, rinv, b), f, info
+        return _Linearisation(hjac, var, valid, innov, rinv, b, info), f
 
     def update_detailed(
         self,
@@ -247,7 +244,7 @@ class ExtendedKalmanFilter:
         """Measurement update with all diagnostics (see :class:`EkfUpdate`)."""
         estimate, lin = self._linearised(est, robot_positions, measurements, noise_scale)
         cov, new_cov = est.cov, estimate.cov
-        hjac, var, valid, innov, rinv, b = lin
+        hjac, var, valid, innov, rinv, b, _ = lin
 
         # Per-measurement NIS against the prior: S = H P_pp Hᵀ + R.
         s = hjac @ cov[None, :, :2, :2] @ np.swapaxes(hjac, -1, -2)
@@ -274,6 +271,8 @@ class _Linearisation(NamedTuple):
     innov: FloatArray
     rinv: FloatArray
     b: FloatArray
+    #: the position information ``J = Σ_k Hᵀ R⁻¹ H`` ``(N, 2, 2)``
+    info: FloatArray
 
 
 _EYE2, _EYE4 = np.eye(2), np.eye(4)
@@ -300,7 +299,7 @@ def _all_true(k: int, n: int) -> NDArray[np.bool_]:
 
 def _joseph(cov: FloatArray, f: FloatArray, info: FloatArray) -> FloatArray:
     """The updated covariance in Joseph form ``(I − KH) P (I − KH)ᵀ + K R Kᵀ`` from the gain
-    ``F`` and information ``J`` of :meth:`ExtendedKalmanFilter._linearised_at`: ``KH = [F J, 0]``
+    ``F`` and position information ``J`` of an update: ``KH = [F J, 0]``
     and ``K R Kᵀ = F J Fᵀ``, a sum of congruences, so it stays positive definite numerically."""
     f_info = f @ info
     # I − KH: the identity's last two columns as they are (1 − 0 and 0 − 0 are exact), the first
