@@ -104,13 +104,8 @@ def arms() -> dict[str, Variant]:
         for label, settings in (GRID | CANDIDATES).items()
     }
     for team in BASELINES:
-        out[team] = team_arm(team)
-    # the paper's team as the paper's experiments run it: its settings over what the file says,
-    # since a generated suite's files name the route program
-    paper = out["paper"]
-    out["paper"] = Variant(
-        paper.label, paper.policy, dict(get_team("paper").settings), tags=paper.tags
-    )
+        # the paper's team on its own program, although a generated suite's files name the route
+        out[team] = team_arm(team, over_file=team == "paper")
     return out
 
 
@@ -145,9 +140,13 @@ def tasks(chosen: Iterable[str] | None = None, suites: Iterable[str] | None = No
     picked = cases()
     if suites is not None:
         known = {suite for suite, _, _ in picked}
-        if set(suites) - known:
-            raise SystemExit(f"--suites: unknown suite(s); known: {', '.join(sorted(known))}")
-        picked = [case for case in picked if case[0] in set(suites)]
+        wanted = set(suites)
+        if wanted - known:
+            raise SystemExit(
+                f"--suites: unknown suite(s) {', '.join(sorted(wanted - known))}; "
+                f"known: {', '.join(sorted(known))}"
+            )
+        picked = [case for case in picked if case[0] in wanted]
     for suite, scenario, seeds in picked:
         for label in labels:
             arm = table[label]

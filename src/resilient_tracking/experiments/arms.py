@@ -108,9 +108,13 @@ class Task:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def team_arm(team: str, label: str | None = None, **tags: Any) -> Variant:
+def team_arm(team: str, label: str | None = None, over_file: bool = False, **tags: Any) -> Variant:
     """The arm of the named team ``team``: its policy, and the team filling in every setting
     the scenario leaves unsaid (as ``team:`` in a scenario file does), labelled ``label``
-    (default: the team)."""
-    policy = get_team(team).settings.get("policy.name", "failure_aware")
-    return Variant(label or team, policy, {"team": team}, tags={"team": team, **tags})
+    (default: the team). ``over_file``: the team's settings replace what the file says too,
+    as the paper's experiments run team ``paper`` on its one-step program whatever program a
+    file names."""
+    settings = get_team(team).settings
+    policy = settings.get("policy.name", "failure_aware")
+    overrides = dict(settings) if over_file else {"team": team}
+    return Variant(label or team, policy, overrides, tags={"team": team, **tags})
