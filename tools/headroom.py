@@ -92,6 +92,8 @@ CANDIDATES: dict[str, dict[str, Any]] = {
     "evidence": _ROUTE | {"estimator.type": "adaptive", "estimator.on_evidence": True},
     "default-redundancy": {"team": "default", "guards.priced.information_share": False},
     "default-permanent-x2": {"team": "default", "guards.priced.reference_share": 0.5},
+    "default-silence-0.45": {"team": "default", "belief.provisional_zone.std": 0.45},
+    "default-silence-0.6": {"team": "default", "belief.provisional_zone.std": 0.6},
     "beyond": {"team": "beyond"},
 }
 
