@@ -93,6 +93,25 @@ def test_unknown_experiment_is_a_clear_error(capsys):
     assert "nope" in capsys.readouterr().err
 
 
+def test_first_seed_moves_every_cell_to_fresh_seeds():
+    exp = catalog()["bench-complex"]
+    assert sorted({t.seed for t in tasks(exp)}) == [1, 2, 3, 4, 5]
+    assert sorted({t.seed for t in tasks(exp, first_seed=101)}) == [101, 102, 103, 104, 105]
+    assert sorted({t.seed for t in tasks(exp, 2, first_seed=7)}) == [7, 8]
+    # the seed is the scenario's, so the run is the one `rtrack run --seed` gives
+    assert {t.scenario.seed for t in tasks(exp, first_seed=101)} == set(range(101, 106))
+
+
+def test_reproduce_runs_the_seeds_from_first_seed_on(tmp_path, capsys):
+    out = tmp_path / "fresh"
+    argv = ["reproduce", "sensing-temp", "--seeds", "1", "--first-seed", "101", "-q"]
+    assert main([*argv, "--out", str(out)]) == 0
+    assert sorted(p.name for p in (out / "runs").glob("*/*/seed-*")) == ["seed-101", "seed-101"]
+    assert "--first-seed 101" in (out / "report.md").read_text()
+    assert main(["reproduce", "sensing-temp", "--first-seed", "-1", "--out", str(tmp_path)]) == 1
+    assert "--first-seed" in capsys.readouterr().err
+
+
 @pytest.mark.slow
 def test_sweep_stores_each_run_and_skips_finished_ones_on_a_rerun(tmp_path):
     todo = tiny_tasks()

@@ -20,6 +20,7 @@ from resilient_tracking.cli.common import (
 )
 from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.scenario import ScenarioError
+from resilient_tracking.spec import MAX_SEED
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -36,11 +37,13 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
     if out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
         return 1
+    if out_of_range("--first-seed", args.first_seed, 0, MAX_SEED - MAX_SEEDS):
+        return 1
     if out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
     try:
         experiments = select(args.names, quick=args.quick)
-        plan = {e.name: tasks(e, args.seeds) for e in experiments}
+        plan = {e.name: tasks(e, args.seeds, first_seed=args.first_seed) for e in experiments}
         if args.team is not None:
             plan = {e.name: with_team(e, plan[e.name], args.team) for e in experiments}
     except KeyError as err:

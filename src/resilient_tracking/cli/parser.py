@@ -149,6 +149,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--seeds", type=int, default=None, help="seeds per cell (default: per experiment)"
     )
+    p.add_argument(
+        "--first-seed",
+        type=int,
+        default=1,
+        help="the first seed of each cell (default: 1); e.g. 101 checks the claims on seeds "
+        "none of the settings was chosen on",
+    )
     p.add_argument("--quick", action="store_true", help="CI size: fewer seeds and cells")
     add_team_option(p, "the failure-aware arms that run the default team")
     _add_sweep_options(p)

@@ -65,9 +65,10 @@ class Experiment:
     #: tracking efforts"), checked as a claim
     keeps_sensing: bool = False
 
-    def seed_list(self, n: int | None = None) -> list[int]:
-        """The seeds ``1..n`` (default ``n``: the experiment's own number of seeds)."""
-        return list(range(1, (n or self.seeds) + 1))
+    def seed_list(self, n: int | None = None, first: int = 1) -> list[int]:
+        """``n`` seeds from ``first`` on (default ``n``: the experiment's own number of
+        seeds; ``first`` other than 1 checks the claims on seeds none of them was made on)."""
+        return list(range(first, first + (n or self.seeds)))
 
 
 @dataclass(frozen=True)

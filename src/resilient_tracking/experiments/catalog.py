@@ -432,9 +432,13 @@ def _generated_arm(scenario: Scenario, variant: Variant) -> Scenario:
 
 
 def tasks(
-    experiment: Experiment, seeds: int | None = None, scenario_dir: Path | None = None
+    experiment: Experiment,
+    seeds: int | None = None,
+    scenario_dir: Path | None = None,
+    first_seed: int = 1,
 ) -> list[Task]:
-    """Every run of an experiment, validated before anything runs."""
+    """Every run of an experiment, validated before anything runs: ``seeds`` seeds per arm
+    (default: the experiment's own number) from ``first_seed`` on."""
     if experiment.generated is not None:
         arms = [
             (variant, _generated_arm(s, variant))
@@ -446,7 +450,7 @@ def tasks(
     return [
         Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
         for variant, scenario in arms
-        for seed in experiment.seed_list(seeds)[: variant.max_seeds]
+        for seed in experiment.seed_list(seeds, first_seed)[: variant.max_seeds]
     ]
 
 
