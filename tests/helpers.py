@@ -109,6 +109,10 @@ def with_policy_needs(data: dict, policy: str) -> dict:
     section = data.setdefault("policy", {})
     for key, needed in POLICY_NEEDS.get(policy, {}).items():
         section[key] = {**section.get(key, {}), **needed}
+    if policy == "onnx":  # a model for any team
+        from onnx_models import shared_pursuer
+
+        section["onnx"] = {**section.get("onnx", {}), "model": str(shared_pursuer())}
     return data
 
 

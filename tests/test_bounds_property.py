@@ -177,7 +177,7 @@ def _every_field_base() -> dict[str, Any]:
         name: POLICIES.get(name).Params().model_dump(mode="json")
         for name in POLICIES.builtin_names()
     }
-    return with_policy_needs(data, "callable")
+    return with_policy_needs(with_policy_needs(data, "callable"), "onnx")
 
 
 EVERY_FIELD = _every_field_base()

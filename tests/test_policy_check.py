@@ -29,7 +29,7 @@ def test_every_builtin_policy_passes(name, scenario):
 
 
 def test_the_builtin_policies_register_themselves():
-    assert set(POLICIES.builtin_names()) == {"failure_aware", "vanilla", "sog", "callable"}
+    assert set(POLICIES.builtin_names()) == {"failure_aware", "vanilla", "sog", "callable", "onnx"}
 
 
 def test_the_learned_policy_without_its_function_is_reported_not_raised(scenario):

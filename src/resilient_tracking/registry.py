@@ -12,6 +12,10 @@ A :class:`Registry` maps names to classes. A name is found, in this order, among
 
 3. a dotted path ``package.module:Class``, imported on demand.
 
+A registered class that takes an argument (its ``argument`` names the parameter it fills, as the
+``onnx`` policy's model file) is also found as ``name:ARGUMENT`` (``onnx:team.onnx``): the class
+made by its ``with_argument(ARGUMENT)``. A registered name wins over a module of the same name.
+
 So a new policy, hazard model or target motion is one new file in its own package: nothing in
 this package changes. Lookups raise :class:`UnknownName`, whose message lists what is known.
 A plug-in module is imported with a command line of its own, and one that exits or raises
@@ -25,7 +29,7 @@ import importlib
 import logging
 from collections.abc import Callable
 from importlib.metadata import entry_points
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 from resilient_tracking import plugin_guard
 
@@ -55,6 +59,8 @@ class Registry(Generic[T]):
         self.base = base
         self._builtins = builtins
         self._entries: dict[str, T] = {}
+        #: classes of names ``name:ARGUMENT``, made once each
+        self._bound: dict[str, T] = {}
         self._loaded = False
         self._entry_point_names: set[str] | None = None
 
@@ -77,7 +83,7 @@ class Registry(Generic[T]):
         if name in self._entries:
             return self._entries[name]
         if ":" in name:
-            return self._import(name)
+            return self._with_argument(name) or self._import(name)
         for ep in entry_points(group=self.group):
             if ep.name == name:
                 try:
@@ -138,6 +144,19 @@ class Registry(Generic[T]):
             self._loaded = True
             for module in self._builtins:
                 importlib.import_module(module)
+
+    def _with_argument(self, name: str) -> T | None:
+        """The class of ``name:ARGUMENT`` when ``name`` is registered and takes an argument."""
+        prefix, _, argument = name.partition(":")
+        takes: Any = self._entries.get(prefix)
+        field = getattr(takes, "argument", None)
+        if not field:
+            return None
+        if name not in self._bound:
+            if not argument:
+                raise UnknownName(f"{self.kind} {name!r}: give its {field} after the colon")
+            self._bound[name] = takes.with_argument(argument)
+        return self._bound[name]
 
     def _import(self, path: str) -> T:
         module_name, _, attr = path.partition(":")

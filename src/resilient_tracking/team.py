@@ -114,6 +114,7 @@ class Team:
             comm_range=config.comm_range,
         )
         self.n_targets = int(initial_estimate.mean.shape[0])
+        policy.check_targets(self.n_targets)
         #: channels of one measurement of the team's sensor (its ``DIM``)
         self.measurement_dim = config.sensor.DIM
         #: whether an invalid decision was logged as a warning (the first one is; later ones

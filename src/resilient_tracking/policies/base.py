@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, create_model
 
 from resilient_tracking.belief.needs import BeliefNeeds
 from resilient_tracking.belief.team_belief import TeamBelief
@@ -71,6 +71,9 @@ class Policy(ABC):
     name: ClassVar[str] = "policy"
     Params: ClassVar[type[BaseModel]] = NoParams
     learns_zones: ClassVar[bool] = True
+    #: the field of ``Params`` that the name ``<name>:<value>`` fills (the ``onnx`` policy's
+    #: ``model``: ``onnx:team.onnx``); ``None``: the name takes no argument
+    argument: ClassVar[str | None] = None
 
     def __init__(self, config: TeamConfig, params: Any = None):
         #: the team: number of robots, velocity bounds, sensor, time step
@@ -82,6 +85,22 @@ class Policy(ABC):
         """What this policy needs of the team's belief (by default: zone knowledge if
         ``learns_zones``)."""
         return BeliefNeeds(zones=self.learns_zones)
+
+    def check_targets(self, n_targets: int) -> None:
+        """Refuse a team tracking ``n_targets`` targets that this policy cannot serve (a
+        ``ValueError`` saying what does not match); the team asks once, before its first tick.
+        Every count by default."""
+        del n_targets  # any number serves
+
+    @classmethod
+    def with_argument(cls, value: str) -> type[Policy]:
+        """This policy with its ``argument`` parameter set to ``value`` unless the scenario
+        sets it: the class of the name ``<name>:<value>``."""
+        if cls.argument is None:
+            raise TypeError(f"policy {cls.name!r} takes no argument")
+        fields: dict[str, Any] = {cls.argument: (str, value)}
+        params = create_model(cls.Params.__name__, __base__=cls.Params, **fields)
+        return type(cls.__name__, (cls,), {"Params": params, "__module__": cls.__module__})
 
     @classmethod
     def build(

@@ -106,15 +106,22 @@ class CallablePolicy(Policy):
     def act(self, belief: TeamBelief, obs: TeamObservation) -> Decision:
         """Each robot's velocity from its own view, clipped to its bounds."""
         m = obs.n_robots
-        controls = np.empty((m, 2))
         views = team_views(belief, obs, self.config.u_max, self.params.max_zones)
-        for i in range(m):
-            view = {name: rows[i] for name, rows in views.items()}
-            controls[i] = np.asarray(self.function(view), dtype=float).reshape(2)
+        controls = self.velocities(views)
         lower, upper = self.config.velocity_bounds(list(range(m)), obs.positions)
         with np.errstate(invalid="ignore"):
             controls = np.clip(controls, lower, upper)
         return Decision(controls, [self.mode] * m)
+
+    def velocities(self, views: dict[str, np.ndarray]) -> np.ndarray:
+        """``(M, 2)`` velocities from every robot's view (each field with a leading axis of the
+        robots): the function called on each robot's own view."""
+        m = len(views["own"])
+        controls = np.empty((m, 2))
+        for i in range(m):
+            view = {name: rows[i] for name, rows in views.items()}
+            controls[i] = np.asarray(self.function(view), dtype=float).reshape(2)
+        return controls
 
     @classmethod
     def wrapping(cls, function: ViewFunction, name: str = "learned") -> type[CallablePolicy]:
