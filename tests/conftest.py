@@ -23,13 +23,6 @@ settings.register_profile(
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Files marked ``long_file`` first: pytest-xdist hands whole files to its workers in
-    collection order (``--dist loadfile --no-loadscope-reorder``), and a long file handed out
-    last would keep one worker busy while the other has nothing left to do."""
-    items.sort(key=lambda item: item.get_closest_marker("long_file") is None)
-
-
 @pytest.fixture
 def scenario_dir() -> Path:
     return SCENARIOS

@@ -30,8 +30,6 @@ from resilient_tracking.scenario.overrides import overridden
 from resilient_tracking.sim.episode import run_episode
 from resilient_tracking.team import Team
 
-pytestmark = pytest.mark.long_file
-
 WATCH_PARAMS = "belief.degradation_watch"
 WATCH = f"{WATCH_PARAMS}.enabled"
 SEEDS = range(101, 111)

@@ -16,7 +16,7 @@ from helpers import SCENARIOS
 from resilient_tracking.experiments.in_memory import compare
 from resilient_tracking.scenario.teams import get_team
 
-pytestmark = [pytest.mark.slow, pytest.mark.long_file]
+pytestmark = pytest.mark.slow
 
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]
 

@@ -32,8 +32,6 @@ from resilient_tracking.experiments.sweep import is_done, run_dir, run_sweep
 from resilient_tracking.runs.manifest import code_digest, source_digest
 from resilient_tracking.runs.schema import REPRODUCIBLE
 
-pytestmark = pytest.mark.long_file
-
 TINY = Experiment(
     "tiny",
     "sensing-temp",

@@ -15,7 +15,7 @@ import pytest
 from conftest import SCENARIOS
 from resilient_tracking.experiments.in_memory import compare
 
-pytestmark = [pytest.mark.slow, pytest.mark.long_file]
+pytestmark = pytest.mark.slow
 
 SIX = ["sensing-temp", "sensing-perm", "comm-temp", "comm-perm", "combined-temp", "combined-perm"]
 SEEDS = range(1, 11)

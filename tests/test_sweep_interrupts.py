@@ -25,8 +25,6 @@ from resilient_tracking.runs import folders
 from resilient_tracking.runs.schema import REPRODUCIBLE
 from resilient_tracking.sim.episode import run_episode
 
-pytestmark = pytest.mark.long_file
-
 ROOT = Path(__file__).resolve().parent.parent
 TINY = Experiment(
     "tiny", "sensing-temp", (Variant("vanilla", "vanilla"),), seeds=2, description="short"

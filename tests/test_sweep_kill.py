@@ -20,7 +20,7 @@ import pytest
 
 from resilient_tracking.runs.schema import REPRODUCIBLE
 
-pytestmark = [pytest.mark.slow, pytest.mark.long_file]
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parent.parent
 SWEEP = ["reproduce", "sensing-temp", "comm-temp", "--quick", "--jobs", "2", "-q"]
