@@ -74,13 +74,13 @@ class OnnxPolicy(CallablePolicy):
         options.intra_op_num_threads = 1  # one robot team per process; sweeps run in parallel
         options.inter_op_num_threads = 1
         try:
-            self.session = onnxruntime.InferenceSession(
+            self.runtime = onnxruntime.InferenceSession(
                 str(path), options, providers=["CPUExecutionProvider"]
             )
         except Exception as err:  # onnxruntime's errors name no field; say what it is
             raise ValueError(f"{self.where}: not a model onnxruntime can run ({err})") from None
-        self.inputs = {i.name: list(i.shape) for i in self.session.get_inputs()}
-        kinds = {i.name: i.type for i in self.session.get_inputs()}
+        self.inputs = {i.name: list(i.shape) for i in self.runtime.get_inputs()}
+        kinds = {i.name: i.type for i in self.runtime.get_inputs()}
         for name in self.inputs:
             if name not in FIELDS:
                 raise ValueError(
@@ -89,7 +89,7 @@ class OnnxPolicy(CallablePolicy):
                 )
             if kinds[name] != "tensor(float)":
                 raise ValueError(f"{self.where}: input {name!r} is {kinds[name]}, not float32")
-        outputs = self.session.get_outputs()
+        outputs = self.runtime.get_outputs()
         if not outputs:
             raise ValueError(f"{self.where}: the model has no output")
         self.output = outputs[0].name
@@ -141,7 +141,7 @@ class OnnxPolicy(CallablePolicy):
     def _run(self, views: dict[str, np.ndarray], rows: int) -> np.ndarray:
         """The model's first output for ``rows`` views, as ``(rows, 2)`` floats."""
         feed = {name: np.ascontiguousarray(views[name], dtype=np.float32) for name in self.inputs}
-        out = np.asarray(self.session.run([self.output], feed)[0], dtype=float)
+        out = np.asarray(self.runtime.run([self.output], feed)[0], dtype=float)
         if out.shape != (rows, 2):
             raise ValueError(
                 f"{self.where}: output {self.output!r} has shape {out.shape}, not ({rows}, 2) "
@@ -150,9 +150,9 @@ class OnnxPolicy(CallablePolicy):
         return out
 
     def __getstate__(self) -> dict[str, Any]:
-        """A copy reopens the model (onnxruntime's session cannot be copied)."""
+        """A copy reopens the model (onnxruntime cannot copy a loaded model)."""
         state = self.__dict__.copy()
-        del state["session"], state["function"]
+        del state["runtime"], state["function"]
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
