@@ -164,6 +164,44 @@ def test_every_robot_blind_terminates_the_episode():
     assert set(rewards.values()) == {0.0} and env.agents == []
 
 
+def lose_for_good(env, robot):
+    """Take robot ``robot``'s sensor and radio for good, as a permanent zone would."""
+    from resilient_tracking.world.world import Failure
+
+    failures = env.session.running.world.failures
+    failures["sensing"][robot] = failures["comm"][robot] = Failure("permanent", 0, 0)
+
+
+def test_with_retire_an_agent_that_can_neither_sense_nor_talk_leaves_and_its_robot_holds():
+    env = parallel_env("combined-perm", steps=STEPS, retire=True, record=False)
+    env.reset(seed=0)
+    lose_for_good(env, 0)
+    _, rewards, terminations, truncations, infos = env.step(env.expert_actions())
+    assert terminations == {"robot_0": True, "robot_1": False, "robot_2": False}
+    assert not any(truncations.values()) and set(rewards) == set(infos) == set(terminations)
+    assert env.agents == ["robot_1", "robot_2"]
+    held = env.session.running.obs.positions[0].copy()
+    with pytest.raises(ValueError, match="unknown agent.*robot_0"):
+        env.step({a: np.ones(2) for a in env.possible_agents})
+    observations, rewards, *_ = env.step({a: np.ones(2) for a in env.agents})
+    assert set(observations) == set(rewards) == {"robot_1", "robot_2"}
+    assert np.array_equal(env.session.running.obs.positions[0], held)
+
+
+def test_without_retire_every_agent_stays_to_the_end():
+    env = parallel_env("combined-perm", steps=STEPS, record=False)
+    env.reset(seed=0)
+    lose_for_good(env, 0)
+    _, _, terminations, *_ = env.step(env.expert_actions())
+    assert not any(terminations.values()) and env.agents == env.possible_agents
+
+
+def test_with_retire_the_environment_passes_the_pettingzoo_api_test():
+    parallel_api_test(parallel_env("combined-perm", seed=3, steps=STEPS, retire=True), STEPS + 5)
+    with pytest.raises(TypeError, match="retire"):
+        parallel_env("combined-perm", retire="yes")
+
+
 def test_render_draws_the_map_of_the_run_so_far():
     env = TeamEnv("sensing-perm", steps=STEPS, render_mode="rgb_array")
     env.reset(seed=0)

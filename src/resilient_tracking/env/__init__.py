@@ -43,15 +43,17 @@ def parallel_env(
     scenario: Scenario | str | Path = "sensing-temp",
     seed: int | None = None,
     render_mode: str | None = None,
+    retire: bool = False,
     **session_options: Any,
 ) -> TrackingParallelEnv:
     """The PettingZoo environment of ``scenario`` (a shipped name, a file or a loaded
     scenario); ``seed`` is the first episode's when ``reset`` is given none (default: the
-    scenario's). ``session_options``: ``steps``, ``expert``, ``max_zones``, ``reward``,
+    scenario's); with ``retire``, an agent whose robot can neither sense nor talk for good
+    leaves the episode. ``session_options``: ``steps``, ``expert``, ``max_zones``, ``reward``,
     ``record`` (see :func:`~resilient_tracking.env.options.make_session`)."""
     session = make_session(scenario, **session_options)
     first = session.scenario.seed if seed is None else seed
-    return TrackingParallelEnv(session, first, render_mode)
+    return TrackingParallelEnv(session, first, render_mode, retire)
 
 
 if TEAM_ENV_ID not in gymnasium.registry:

@@ -26,7 +26,10 @@ class TrackingParallelEnv(ParallelEnv):
     Each agent observes its robot's view (:mod:`resilient_tracking.belief.agent_view`) and
     acts with a velocity ``(2,)`` within its bound; every agent gets the team's reward. The
     episode ends for all agents at once: terminated when every sensor is out, truncated at the
-    scenario's steps. ``infos`` hold the run's numbers (:meth:`TrackingSession.metrics`).
+    scenario's steps. With ``retire``, an agent whose robot has lost both its sensor and its
+    radio for good is terminated on its own (it leaves ``agents``, and its robot holds), as
+    multi-agent libraries expect of an agent that can no longer act on the outcome. ``infos``
+    hold the run's numbers (:meth:`TrackingSession.metrics`).
 
     What it refuses, leaving the episode as it was: a step before ``reset`` or after the
     episode ended (:class:`~resilient_tracking.env.checks.ResetNeeded`), actions that do not
@@ -37,9 +40,19 @@ class TrackingParallelEnv(ParallelEnv):
 
     metadata = {"name": "resilient_tracking_v0", "render_modes": list(RENDER_MODES)}
 
-    def __init__(self, session: TrackingSession, seed: int, render_mode: str | None = None):
+    def __init__(
+        self,
+        session: TrackingSession,
+        seed: int,
+        render_mode: str | None = None,
+        retire: bool = False,
+    ):
         check_render_mode(render_mode, session)
+        if not isinstance(retire, bool):
+            raise TypeError(f"retire: expected True or False, got {retire!r}")
         self.session = session
+        #: whether an agent whose robot can neither sense nor talk for good leaves the episode
+        self.retire = retire
         self.render_mode = render_mode
         self._seeds = Seeds(seed)
         m = session.shape.n_robots
@@ -76,24 +89,30 @@ class TrackingParallelEnv(ParallelEnv):
         dict[str, bool],
         dict[str, dict[str, Any]],
     ]:
-        """Every robot moves with its agent's action (every live agent acts); views, the
-        team's reward, terminations, truncations and the run's numbers, per agent."""
+        """Every robot moves with its agent's action (every live agent acts; a retired
+        agent's robot holds); views, the team's reward, terminations, truncations and the run's
+        numbers, for each agent live before the step."""
         self.session.check_steppable()
         agents_acting(actions, self.agents)
         controls = np.stack(
             [
                 velocities(f"action of {agent}", actions[agent], self._velocity_spaces[agent])
+                if agent in actions
+                else np.zeros(2)
                 for agent in self.possible_agents
             ]
         )
         reward, terminated, truncated = self.session.step(controls)
         agents = self.agents
-        observations, infos = self._observations(), self._infos()
+        observations, infos = self._observations(agents), self._infos(agents)
         rewards = dict.fromkeys(agents, reward)
-        terminations = dict.fromkeys(agents, terminated)
+        retired = self._retired(observations)
+        terminations = {agent: terminated or agent in retired for agent in agents}
         truncations = dict.fromkeys(agents, truncated and not terminated)
         if terminated or truncated:
             self.agents = []
+        else:
+            self.agents = [agent for agent in agents if agent not in retired]
         return observations, rewards, terminations, truncations, infos
 
     def expert_actions(self) -> dict[str, np.ndarray]:
@@ -112,13 +131,25 @@ class TrackingParallelEnv(ParallelEnv):
         """Nothing to release."""
         pass
 
-    def _observations(self) -> dict[str, dict[str, np.ndarray]]:
+    def _retired(self, observations: dict[str, dict[str, np.ndarray]]) -> set[str]:
+        """The agents whose robot has lost its sensor and its radio for good (with
+        ``retire``; the view's ``own`` flags 5 and 6)."""
+        if not self.retire:
+            return set()
+        return {agent for agent, view in observations.items() if view["own"][5:7].all()}
+
+    def _observations(self, agents: list[str] | None = None) -> dict[str, dict[str, np.ndarray]]:
         views = self.session.views()
         return {
             agent: {name: rows[i] for name, rows in views.items()}
             for i, agent in enumerate(self.possible_agents)
+            if agents is None or agent in agents
         }
 
-    def _infos(self) -> dict[str, dict[str, Any]]:
+    def _infos(self, agents: list[str] | None = None) -> dict[str, dict[str, Any]]:
         metrics = self.session.metrics()
-        return {agent: dict(metrics) for agent in self.possible_agents}
+        return {
+            agent: dict(metrics)
+            for agent in self.possible_agents
+            if agents is None or agent in agents
+        }
