@@ -71,6 +71,36 @@ def test_rtrack_run_and_compare_run_a_team_saved_as_onnx(tmp_path, model):
     assert (tmp_path / "cmp" / "report.md").exists()
 
 
+def test_rtrack_reproduce_runs_the_failure_aware_arms_with_the_model(tmp_path, model):
+    out = tmp_path / "reproduced"
+    argv = ["reproduce", "sensing-temp", "--seeds", "1", "--policy", f"onnx:{model}", "-q"]
+    assert main([*argv, "--out", str(out)]) == 0
+    modes = {
+        arm.name: set(pd.read_parquet(run / "robots.parquet")["mode"])
+        for arm in (out / "runs" / "sensing-temp").iterdir()
+        for run in arm.glob("seed-*")
+    }
+    learned = [arm for arm, seen in modes.items() if seen == {"learned"}]
+    assert len(learned) == 1 and len(modes) == 2  # the failure-aware arm, not vanilla
+    assert f"--policy onnx:{model}" in (out / "report.md").read_text()
+    refused = ["reproduce", "sensing-temp", "--policy", "onnx:", "--out", str(tmp_path / "x")]
+    assert main(refused) == 1 and not (tmp_path / "x").exists()
+
+
+def test_a_changed_model_file_makes_stored_runs_stale(tmp_path, model):
+    from resilient_tracking.experiments.catalog import catalog, tasks, with_policy
+
+    def fingerprints():
+        runs = with_policy(tasks(catalog()["sensing-temp"], 1), f"onnx:{model}")
+        return {t.variant.policy.partition(":")[0]: t.fingerprint for t in runs}
+
+    before = fingerprints()
+    assert fingerprints() == before and set(before) == {"onnx", "vanilla"}
+    pursuer_model(model, input_name="targets", divide_by_zero=True)  # same path, new weights
+    after = fingerprints()
+    assert after["onnx"] != before["onnx"] and after["vanilla"] == before["vanilla"]
+
+
 def test_the_pursuer_follows_its_targets_in_an_episode(model):
     """Closed loop: the robots end nearer the targets than they start (the controls reach the
     robots), and the team tracks (finite, small error) with no invalid decision."""

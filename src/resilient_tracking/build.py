@@ -8,6 +8,7 @@ know nothing of scenario files. This module is where the two meet.
 
 from __future__ import annotations
 
+import hashlib
 from typing import Any
 
 import numpy as np
@@ -94,6 +95,21 @@ def make_policy(
     params: Any = scenario.policy.params_for(name)
     planner = planner or LeaguePlanner.from_spec(scenario.planner)
     return cls.build(config, params, planner, scenario.guards)
+
+
+def policy_files_digest(name: str, scenario: Scenario) -> str:
+    """A hash of the contents of the files the policy ``name`` reads under ``scenario``'s
+    parameters (:meth:`Policy.files_read`; empty when it reads none), so that a stored run
+    made with another model is seen as stale. A missing file hashes as missing."""
+    cls = POLICIES.get(name)
+    files = cls.files_read(scenario.policy.params_for(name))
+    if not files:
+        return ""
+    digest = hashlib.sha256()
+    for path in files:
+        digest.update(str(path).encode())
+        digest.update(path.read_bytes() if path.is_file() else b"missing")
+    return digest.hexdigest()[:16]
 
 
 def zone_map(scenario: Scenario) -> list[ZoneEstimate]:

@@ -14,6 +14,7 @@ from resilient_tracking.cli.common import (
     advance,
     max_jobs,
     out_of_range,
+    policy_problem,
     prepare_compiled_code,
     shown,
     unusable_name,
@@ -32,7 +33,7 @@ if TYPE_CHECKING:
 def cmd_reproduce(args: argparse.Namespace) -> int:
     """``rtrack reproduce``: run the paper's experiments (docs/model.md §8) as a resumable sweep
     into ``--out`` and write ``report.md``, printing how many of the claims hold."""
-    from resilient_tracking.experiments.catalog import select, tasks, with_team
+    from resilient_tracking.experiments.catalog import select, tasks, with_policy, with_team
     from resilient_tracking.experiments.report import files_of_report, write_report
 
     if out_of_range("--seeds", args.seeds, 1, MAX_SEEDS):
@@ -41,11 +42,17 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         return 1
     if out_of_range("--jobs", args.jobs, 1, max_jobs()):
         return 1
+    why = policy_problem(args.policy)
+    if why is not None:
+        print(f"error: --policy: {shown(why)}", file=sys.stderr)
+        return 1
     try:
         experiments = select(args.names, quick=args.quick)
         plan = {e.name: tasks(e, args.seeds, first_seed=args.first_seed) for e in experiments}
         if args.team is not None:
             plan = {e.name: with_team(e, plan[e.name], args.team) for e in experiments}
+        if args.policy is not None:
+            plan = {e.name: with_policy(plan[e.name], args.policy) for e in experiments}
     except KeyError as err:
         print(f"error: {shown(err.args[0])}", file=sys.stderr)
         return 1

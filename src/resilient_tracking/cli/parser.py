@@ -158,6 +158,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--quick", action="store_true", help="CI size: fewer seeds and cells")
     add_team_option(p, "the failure-aware arms that run the default team")
+    p.add_argument(
+        "--policy",
+        default=None,
+        help="a policy runs the failure-aware arms in the planner's place, so that the claims "
+        "judge it: a registered name, package.module:Class or onnx:PATH (default: the planner)",
+    )
     _add_sweep_options(p)
     p.set_defaults(func=experiments.cmd_reproduce, argv=[])
 

@@ -9,6 +9,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from resilient_tracking.build import policy_files_digest
 from resilient_tracking.runs.folders import folder_name
 from resilient_tracking.runs.manifest import code_digest
 from resilient_tracking.scenario import Scenario
@@ -93,13 +94,15 @@ class Task:
     def fingerprint(self) -> str:
         """Hash of everything that determines the run's tables: the scenario, the policy, the
         seed, whether the bound is computed, and the package's code
-        (:func:`~resilient_tracking.runs.manifest.code_digest`); a stored run with another
-        fingerprint is stale and is run again. The free-text
+        (:func:`~resilient_tracking.runs.manifest.code_digest`) and the files the policy reads
+        (an ONNX model's weights, :func:`~resilient_tracking.build.policy_files_digest`); a
+        stored run with another fingerprint is stale and is run again. The free-text
         ``description`` is left out: rewording it changes no result."""
         text = json.dumps(
             [
                 self.scenario.model_dump(mode="json", exclude={"description"}),
                 self.variant.policy,
+                *filter(None, [policy_files_digest(self.variant.policy, self.scenario)]),
                 self.seed,
                 *(["bound"] if self.bound else []),
                 code_digest(),

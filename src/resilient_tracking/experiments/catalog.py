@@ -22,6 +22,7 @@ import yaml
 
 from resilient_tracking import builtin_scenarios
 from resilient_tracking.experiments.arms import Experiment, Task, Variant, team_arm
+from resilient_tracking.experiments.claims import IN_PLACE_OF
 from resilient_tracking.experiments.generator import (
     stored_adversarial_suite,
     stored_beyond_suite,
@@ -451,6 +452,23 @@ def tasks(
         Task(experiment.name, variant, seed, scenario.with_overrides(seed=seed))
         for variant, scenario in arms
         for seed in experiment.seed_list(seeds, first_seed)[: variant.max_seeds]
+    ]
+
+
+def with_policy(runs: list[Task], policy: str) -> list[Task]:
+    """``runs`` with the failure-aware planner of their failure-aware arms replaced by the
+    policy ``policy`` (``rtrack reproduce --policy``): the arms keep their labels, team and
+    belief, so the report's claims judge that policy in the planner's place."""
+    return [
+        replace(
+            t,
+            variant=replace(
+                t.variant, policy=policy, tags={**t.variant.tags, IN_PLACE_OF: "failure_aware"}
+            ),
+        )
+        if t.variant.policy == "failure_aware"
+        else t
+        for t in runs
     ]
 
 

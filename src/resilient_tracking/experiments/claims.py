@@ -390,6 +390,15 @@ CHECKS = {
 }
 
 
+#: The tag of an arm whose policy runs in another's place (``rtrack reproduce --policy``).
+IN_PLACE_OF = "in_place_of"
+
+
 def check(exp: Experiment, summary: pd.DataFrame) -> list[Claim]:
-    """Every claim of docs/model.md §8 that applies to ``exp``."""
+    """Every claim of docs/model.md §8 that applies to ``exp``; an arm whose policy runs in the
+    failure-aware planner's place (tagged ``in_place_of``) is judged as that planner's arm."""
+    column = f"tag_{IN_PLACE_OF}"
+    if column in summary:
+        stands_for = summary[column].where(summary[column].notna(), summary["policy"])
+        summary = summary.assign(policy=stands_for)
     return CHECKS[exp.kind](exp, summary)

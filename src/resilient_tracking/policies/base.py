@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -85,6 +86,13 @@ class Policy(ABC):
         """What this policy needs of the team's belief (by default: zone knowledge if
         ``learns_zones``)."""
         return BeliefNeeds(zones=self.learns_zones)
+
+    @classmethod
+    def files_read(cls, params: Any) -> list[Path]:
+        """Files whose content decides this policy's actions under ``params`` (a model's
+        weights): a stored run made with other contents is stale. None by default."""
+        del params
+        return []
 
     def check_targets(self, n_targets: int) -> None:
         """Refuse a team tracking ``n_targets`` targets that this policy cannot serve (a

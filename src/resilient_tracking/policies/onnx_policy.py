@@ -54,6 +54,11 @@ class OnnxPolicy(CallablePolicy):
     argument: ClassVar[str | None] = "model"
     mode: ClassVar[str] = "learned"
 
+    @classmethod
+    def files_read(cls, params: Any) -> list[Path]:
+        """The model file: its weights decide the velocities."""
+        return [Path(params.model)] if params.model else []
+
     def make_function(self) -> ViewFunction:
         """Open the model and check its inputs and outputs as far as the team's robots and
         zone rows tell; the function runs it on one robot's view."""
