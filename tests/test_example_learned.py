@@ -82,3 +82,25 @@ def test_the_exported_team_decides_as_the_network_and_passes_check_policy(traine
         np.testing.assert_allclose(policy.velocities(views), expected.numpy(), atol=1e-5)
     report = check_policy(name, shipped("comm-temp").with_overrides(steps=20))
     assert report.ok, str(report)
+
+
+def test_a_robot_that_retires_is_masked_out_of_the_rollout_and_the_loss():
+    """TorchRL's wrapper with its agent mask: a robot that can neither sense nor talk for good
+    leaves (PettingZoo), the mask marks it, and its later steps are not trained on."""
+    from resilient_tracking.world.world import Failure
+
+    train = example_module("train")
+    learner = train.Learner()
+    env = train.wrapped(shipped("combined-perm"), steps=8)
+    start = env.reset()
+    failures = env._env.session.running.world.failures
+    failures["sensing"][0] = failures["comm"][0] = Failure("permanent", 0, 0)
+    with torch.no_grad():
+        rollout = env.rollout(8, learner.act, auto_reset=False, tensordict=start)
+    mask = rollout.get(("robots", "mask"))
+    assert mask[0].tolist() == [True, True, True]  # it acts once, then retires
+    assert not mask[1:, 0].any() and mask[1:, 1:].all()
+    assert rollout.get(("next", "robots", "terminated"))[0, :, 0].tolist() == [True, False, False]
+    samples = learner.samples(rollout, gamma=0.98, lmbda=0.95)
+    assert len(samples) == 1 + 2 * len(rollout)
+    assert torch.isfinite(samples["advantage"]).all()

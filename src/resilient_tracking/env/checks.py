@@ -66,15 +66,18 @@ def _expected(space: spaces.Space[Any]) -> str:
     return f"an array of real numbers of shape {space.shape} in {' '.join(repr(space).split())}"
 
 
-def agents_acting(actions: Any, live: Iterable[str]) -> None:
-    """Refuse an action dictionary that is not one, names an agent that is not live, or
-    leaves a live agent out (every live agent acts at each step of a parallel environment)."""
+def agents_acting(actions: Any, live: Iterable[str], retired: Iterable[str] = ()) -> None:
+    """Refuse an action dictionary that is not one, names an agent that is neither live nor
+    ``retired``, or leaves a live agent out (every live agent acts at each step of a parallel
+    environment). Actions of retired agents are allowed (and ignored by the caller): TorchRL's
+    PettingZoo wrapper sends one for every agent of a group."""
     live = list(live)
     if not isinstance(actions, Mapping):
         raise TypeError(
             f"actions: expected a dict from agent name to velocity, got {type(actions).__name__}"
         )
-    unknown = [agent for agent in actions if agent not in live]
+    retired = set(retired)
+    unknown = [agent for agent in actions if agent not in live and agent not in retired]
     if unknown:
         raise ValueError(
             f"actions: unknown agent(s) {', '.join(map(repr, unknown))}; "

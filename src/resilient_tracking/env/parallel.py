@@ -90,14 +90,16 @@ class TrackingParallelEnv(ParallelEnv):
         dict[str, dict[str, Any]],
     ]:
         """Every robot moves with its agent's action (every live agent acts; a retired
-        agent's robot holds); views, the team's reward, terminations, truncations and the run's
+        agent's robot holds, and an action given for it is ignored, as TorchRL gives one for
+        every agent); views, the team's reward, terminations, truncations and the run's
         numbers, for each agent live before the step."""
         self.session.check_steppable()
-        agents_acting(actions, self.agents)
+        retired = [agent for agent in self.possible_agents if agent not in self.agents]
+        agents_acting(actions, self.agents, retired if self.retire else ())
         controls = np.stack(
             [
                 velocities(f"action of {agent}", actions[agent], self._velocity_spaces[agent])
-                if agent in actions
+                if agent in self.agents
                 else np.zeros(2)
                 for agent in self.possible_agents
             ]

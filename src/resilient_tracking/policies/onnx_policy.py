@@ -9,8 +9,10 @@ the file is the whole policy. All robots go through in one call, or one at a tim
 model's leading axis is fixed at 1.
 
 The policy is named in a scenario as ``policy: {name: "onnx:team.onnx"}`` (or ``name: onnx``
-with ``policy.params.model``); a relative path is taken from the working directory. Needs the
-``onnx`` extra (``pip install "resilient-tracking[onnx]"``).
+with ``policy.params.model``); a relative path is taken from the working directory. A name with
+no folder and no suffix that is no file there is a model shipped with the package
+(:data:`SHIPPED`): ``onnx:learned-team`` is the team trained by ``examples/learned_team``.
+Needs the ``onnx`` extra (``pip install "resilient-tracking[onnx]"``).
 
 Before the first tick the model is checked against the team: the file opens, every input is a
 field of a view with that field's shape for this team, and on a view of zeros the output has
@@ -44,6 +46,20 @@ class OnnxParams(Strict):
     )
 
 
+#: The folder of the models shipped with the package, each ``NAME.onnx`` (``onnx:NAME``).
+SHIPPED = Path(__file__).with_name("models")
+
+
+def model_path(model: str) -> Path:
+    """The file of ``model``: a path, or the name of a shipped model (module docstring)."""
+    path = Path(model)
+    if not path.exists() and path.name == model and not path.suffix:
+        shipped = SHIPPED / f"{model}.onnx"
+        if shipped.is_file():
+            return shipped
+    return path
+
+
 @register_policy("onnx")
 class OnnxPolicy(CallablePolicy):
     """Each robot moves as the ONNX model decides from its own view (module docstring)."""
@@ -57,17 +73,18 @@ class OnnxPolicy(CallablePolicy):
     @classmethod
     def files_read(cls, params: Any) -> list[Path]:
         """The model file: its weights decide the velocities."""
-        return [Path(params.model)] if params.model else []
+        return [model_path(params.model)] if params.model else []
 
     def make_function(self) -> ViewFunction:
         """Open the model and check its inputs and outputs as far as the team's robots and
         zone rows tell; the function runs it on one robot's view."""
-        path = Path(self.params.model)
-        self.where = f"policy onnx: model {str(path)!r}"
+        path = model_path(self.params.model)
+        self.where = f"policy onnx: model {self.params.model!r}"
         if not self.params.model:
             raise ValueError("policy onnx: give the model file as onnx:PATH or params.model")
         if not path.is_file():
-            raise ValueError(f"{self.where}: no such file")
+            shipped = ", ".join(sorted(m.stem for m in SHIPPED.glob("*.onnx"))) or "none"
+            raise ValueError(f"{self.where}: no such file (models shipped: {shipped})")
         try:
             import onnxruntime
         except ImportError:

@@ -1,0 +1,128 @@
+"""Environments stepped in parallel processes: environment steps per second with one process
+and with two, at 3×3 (``sensing-temp``), with the run tables recorded and without
+(``record=False``), through Gymnasium's vector environments and TorchRL's; for the scenario's
+own team (the default team, whose adaptive estimator makes a step cost milliseconds) and for the
+paper's team (an EKF: a step of a few hundred microseconds, where passing messages between
+processes weighs more).
+
+- Gymnasium: the team environment (``resilient_tracking/Team-v0``), ``SyncVectorEnv`` (one
+  process) against ``AsyncVectorEnv`` (one process per environment, observations in shared
+  memory), each holding the same two environments, stepped with random velocities drawn before
+  the clock starts.
+- TorchRL: the PettingZoo environment through ``PettingZooWrapper`` (agent mask on, as
+  ``examples/learned_team`` trains), ``SerialEnv`` (one process) against ``ParallelEnv`` (one
+  process per environment), two environments each, rolled out with random actions.
+
+Each case first runs a few steps untimed; steps count every environment's step (a vector step of
+two environments is two). The ratio is the two-process rate over the one-process rate, measured
+side by side in one run.
+
+    python -m benchmarks.env_parallel           # about two minutes
+    python -m benchmarks.env_parallel --quick   # a smoke run
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import os
+import time
+from typing import Any
+
+from benchmarks.common import machine, save, table
+
+SCENARIO = "sensing-temp"
+WORKERS = 2
+
+
+def team_env(record: bool, team: str | None) -> Any:
+    from resilient_tracking.env import TeamEnv
+
+    return TeamEnv(SCENARIO, record=record, team=team)
+
+
+def gymnasium_rate(parallel: bool, record: bool, team: str | None, steps: int) -> float:
+    """Environment steps per second of two team environments in one vector (``parallel``: each
+    in its own process)."""
+    import gymnasium
+
+    make = [functools.partial(team_env, record, team)] * WORKERS
+    envs = (
+        gymnasium.vector.AsyncVectorEnv(make, shared_memory=True)
+        if parallel
+        else gymnasium.vector.SyncVectorEnv(make)
+    )
+    try:
+        envs.action_space.seed(0)
+        actions = [envs.action_space.sample() for _ in range(steps // WORKERS)]
+        envs.reset(seed=0)
+        for action in actions[:10]:
+            envs.step(action)
+        start = time.perf_counter()
+        for action in actions:
+            envs.step(action)
+        return WORKERS * len(actions) / (time.perf_counter() - start)
+    finally:
+        envs.close()
+
+
+def torchrl_env(record: bool, team: str | None) -> Any:
+    from torchrl.envs.libs.pettingzoo import PettingZooWrapper
+
+    from resilient_tracking.env import parallel_env
+
+    env = parallel_env(SCENARIO, record=record, retire=True, team=team)
+    return PettingZooWrapper(
+        env=env,
+        group_map={"robots": list(env.possible_agents)},
+        use_mask=True,
+        categorical_actions=False,
+        done_on_any=False,
+    )
+
+
+def torchrl_rate(parallel: bool, record: bool, team: str | None, steps: int) -> float:
+    """Environment steps per second of two wrapped PettingZoo environments, rolled out with
+    random actions (``parallel``: TorchRL's ``ParallelEnv``, else its ``SerialEnv``)."""
+    from torchrl.envs import ParallelEnv, SerialEnv
+
+    make = functools.partial(torchrl_env, record, team)
+    envs = ParallelEnv(WORKERS, make) if parallel else SerialEnv(WORKERS, make)
+    try:
+        envs.set_seed(0)
+        envs.rollout(10, break_when_any_done=False)
+        start = time.perf_counter()
+        envs.rollout(steps // WORKERS, break_when_any_done=False)
+        return WORKERS * (steps // WORKERS) / (time.perf_counter() - start)
+    finally:
+        envs.close()
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    scale = 0.1 if args.quick else 1.0
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"load average (1 min): {load:.2f} on {os.cpu_count()} cores")
+    rows, results = [], {}
+    for library, rate, steps in (
+        ("Gymnasium", gymnasium_rate, int(3000 * scale)),
+        ("TorchRL", torchrl_rate, int(1000 * scale)),
+    ):
+        for team in (None, "paper"):
+            for record in (True, False):
+                one = rate(False, record, team, steps)
+                two = rate(True, record, team, steps)
+                label = "recorded" if record else "record=False"
+                who = team or "default"
+                rows.append([library, who, label, one, two, two / one])
+                results[f"{library}, {who}, {label}"] = {"one_process": one, "two_processes": two}
+    header = ["library", "team", "run tables", "steps/s, 1 process", "steps/s, 2 processes"]
+    print(table(rows, [*header, "ratio"]))
+    path = save("env_parallel", {"machine": machine(), "scenario": SCENARIO, "rates": results})
+    print(f"\nsaved {path}")
+
+
+if __name__ == "__main__":
+    main()
