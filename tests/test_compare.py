@@ -19,6 +19,7 @@ from resilient_tracking.experiments.comparison import (
 )
 from resilient_tracking.experiments.comparison_stats import (
     last_third_ratios,
+    paired_differences,
     summary_table,
     wins,
 )
@@ -107,6 +108,23 @@ def test_paired_wins_and_best_counts_compare_seed_by_seed():
     assert wins(runs, "anees").loc["b", "a"] == 1
 
 
+def test_paired_differences_are_the_mean_and_students_t_interval_of_per_seed_differences():
+    runs = pd.DataFrame(
+        {
+            "policy": ["a"] * 4 + ["b"] * 4,
+            "seed": [1, 2, 3, 4] * 2,
+            "mse": [1.0, 2.0, 3.0, 4.0, 1.5, 2.0, 4.0, 4.5],
+        }
+    )
+    d = paired_differences(runs, "mse").set_index(["a", "b"])
+    diff = np.array([-0.5, 0.0, -1.0, -0.5])
+    half = stats.t.ppf(0.975, 3) * diff.std(ddof=1) / 2
+    assert d.loc[("a", "b"), "mean"] == pytest.approx(-0.5)
+    assert d.loc[("a", "b"), "low"] == pytest.approx(-0.5 - half)
+    assert d.loc[("a", "b"), "high"] == pytest.approx(-0.5 + half)
+    assert d.loc[("b", "a"), "mean"] == pytest.approx(0.5) and d.loc[("a", "b"), "n"] == 4
+
+
 def test_unknown_policy_and_scenario_fail_before_running():
     with pytest.raises(ValueError, match="--policies"):
         make_study(["sensing-temp"], ["vanila"], 2)
@@ -137,6 +155,7 @@ def test_compare_writes_a_report_and_resumes(tmp_path, capsys):
     report = (out / "report.md").read_text()
     assert "## sensing-temp" in report and "`steps=15`" in report
     assert "| failure_aware | 2 |" in report and "| vanilla | 2 |" in report
+    assert "| MSE [m²]: row − column, mean [95 % interval] | failure_aware | vanilla |" in report
     for name in ("bands", "boxes", "snapshots-failure_aware", "snapshots-vanilla"):
         assert (out / "sensing-temp" / "figures" / f"{name}.png").stat().st_size > 0
     runs = pd.read_csv(out / "runs.csv")

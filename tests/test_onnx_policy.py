@@ -69,6 +69,9 @@ def test_rtrack_run_and_compare_run_a_team_saved_as_onnx(tmp_path, model):
     argv = ["compare", "sensing-temp", "--policies", f"onnx:{model}", "--seeds", "1"]
     assert main([*argv, "--out", str(tmp_path / "cmp"), "-q"]) == 0
     assert (tmp_path / "cmp" / "report.md").exists()
+    figures = tmp_path / "cmp" / "sensing-temp" / "figures"
+    snapshots = [p.name for p in figures.iterdir() if p.name.startswith("snapshots-")]
+    assert snapshots == [f"snapshots-onnx_{str(model).replace('/', '_')}.png"]  # one file
 
 
 def test_rtrack_reproduce_runs_the_failure_aware_arms_with_the_model(tmp_path, model):

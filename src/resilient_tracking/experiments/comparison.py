@@ -47,6 +47,7 @@ from resilient_tracking.experiments.comparison_stats import (
 from resilient_tracking.experiments.comparison_tables import (
     bound_markdown,
     consistency_markdown,
+    differences_markdown,
     summary_markdown,
     wins_markdown,
     zone_free_markdown,
@@ -62,7 +63,7 @@ from resilient_tracking.experiments.paired import HEADLINE
 from resilient_tracking.experiments.report_files import ReportFiles
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.experiments.sweep import is_done, run_dir
-from resilient_tracking.runs.folders import write_text_atomic
+from resilient_tracking.runs.folders import folder_name, write_text_atomic
 from resilient_tracking.runs.reading import RunData, load_run
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.overrides import overridden
@@ -305,7 +306,7 @@ def scenario_section(
         drawn.append(
             (
                 f"snapshots, {policy}, seed {rs[0].seed}",
-                plot_snapshots(rs[0], figures / f"snapshots-{policy}.png"),
+                plot_snapshots(rs[0], figures / f"snapshots-{folder_name(policy)}.png"),
             )
         )
     parts = [
@@ -318,6 +319,9 @@ def scenario_section(
         consistency_markdown(zoned),
         "**Paired wins** (same seed, so the same zone draws):",
         wins_markdown(zoned),
+        "**Paired differences** (same seed): the mean over seeds of row − column and its 95 % "
+        "interval; an interval below zero means the row is lower, above zero the column:",
+        differences_markdown(zoned),
     ]
     if zoned["bound"].notna().any():
         parts.append(bound_markdown(zoned))

@@ -56,6 +56,21 @@ def wins(runs: pd.DataFrame, metric: str, lower_is_better: bool = True) -> pd.Da
     return out
 
 
+def paired_differences(runs: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """Per pair of policies ``(a, b)``, the mean over paired seeds of ``a − b`` on ``metric``
+    and its 95 % Student-t interval (columns ``mean``, ``low``, ``high``, ``n``)."""
+    table = runs.pivot_table(index="seed", columns="policy", values=metric)
+    rows = []
+    for a in table.columns:
+        for b in table.columns:
+            if a != b:
+                diff = (table[a] - table[b]).dropna().to_numpy()
+                low, high = confidence_interval(diff)
+                mean = float(diff.mean()) if len(diff) else float("nan")
+                rows.append(dict(a=a, b=b, mean=mean, low=low, high=high, n=len(diff)))
+    return pd.DataFrame(rows, columns=["a", "b", "mean", "low", "high", "n"])
+
+
 def summary_table(
     runs: pd.DataFrame, metrics: Sequence[tuple[str, str, bool]] = METRICS
 ) -> pd.DataFrame:

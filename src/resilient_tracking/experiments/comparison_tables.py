@@ -11,6 +11,7 @@ from resilient_tracking.experiments.comparison_stats import (
     METRICS,
     RATIO_METRIC,
     last_third_ratios,
+    paired_differences,
     wins,
 )
 from resilient_tracking.experiments.generalization import zone_free_rows
@@ -55,6 +56,32 @@ def wins_markdown(runs: pd.DataFrame) -> str:
                 + " | ".join("–" if a == b else str(int(w.loc[a, b])) for b in w.columns)
                 + " |"
             )
+        parts.append("\n".join(lines))
+    return "\n\n".join(parts)
+
+
+def differences_markdown(runs: pd.DataFrame) -> str:
+    """The paired differences of MSE and NLL (:func:`~.comparison_stats.paired_differences`)
+    of a scenario's runs, one table per metric: row − column, mean over paired seeds and its
+    95 % interval (an interval below zero: the row is better, whatever the seeds' spread)."""
+    parts = []
+    for metric, label, _ in METRICS[:2]:
+        d = paired_differences(runs, metric)
+        policies = list(dict.fromkeys(d["a"]))
+        lines = [
+            f"| {label}: row − column, mean [95 % interval] | " + " | ".join(policies) + " |",
+            "|" + "---|" * (len(policies) + 1),
+        ]
+        for a in policies:
+            cells = []
+            for b in policies:
+                if a == b:
+                    cells.append("–")
+                    continue
+                r = d[(d["a"] == a) & (d["b"] == b)].iloc[0]
+                interval = "" if not np.isfinite(r.low) else f" [{_fmt(r.low)}, {_fmt(r.high)}]"
+                cells.append(f"{_fmt(r['mean'])}{interval}")
+            lines.append(f"| {a} | " + " | ".join(cells) + " |")
         parts.append("\n".join(lines))
     return "\n\n".join(parts)
 
