@@ -94,8 +94,8 @@ class TrackingParallelEnv(ParallelEnv):
         every agent); views, the team's reward, terminations, truncations and the run's
         numbers, for each agent live before the step."""
         self.session.check_steppable()
-        retired = [agent for agent in self.possible_agents if agent not in self.agents]
-        agents_acting(actions, self.agents, retired if self.retire else ())
+        gone = [agent for agent in self.possible_agents if agent not in self.agents]
+        agents_acting(actions, self.agents, gone if self.retire else ())
         controls = np.stack(
             [
                 velocities(f"action of {agent}", actions[agent], self._velocity_spaces[agent])
