@@ -4,7 +4,10 @@ IPPO: one actor and one critic shared by every robot, each acting on its own vie
 TorchRL's clipped PPO loss with generalized advantage estimation. The actor starts from the
 failure-aware planner's demonstrations (behaviour cloning on the states of its own episodes,
 ``env.expert_actions()``), and the critic from those episodes' returns; PPO then improves on
-them with the environment's reward. Episodes run in the PettingZoo
+them with the environment's reward, held near the demonstrated policy by a penalty on the
+distance between the two policies' mean velocities (an anchor, as in demonstration-augmented
+policy gradients). The checkpoint kept is the one after the ``WINDOW`` iterations with the
+highest mean return (the reward: the team's belief, never the truth). Episodes run in the PettingZoo
 environment through TorchRL's ``PettingZooWrapper`` with its agent mask: with ``retire=True``, a
 robot that has lost its sensor and its radio for good leaves the episode and is masked out of
 the loss. The reward is the environment's reward callable, here ``LogTraceReward``.
@@ -21,6 +24,7 @@ seed. Writes, in ``--out``: ``checkpoint.pt`` (the networks), ``curve.csv`` and 
 from __future__ import annotations
 
 import argparse
+import copy
 import csv
 import logging
 import math
@@ -55,6 +59,8 @@ assert TRAIN_SEED != SUITE_SEED
 #: The first episode seed of training (the comparisons use seeds 1, 2, …).
 FIRST_TRAINING_SEED = 1000
 GROUP = "robots"
+#: Iterations whose mean return chooses the checkpoint kept.
+WINDOW = 10
 
 
 @dataclass(frozen=True)
@@ -92,9 +98,11 @@ def wrapped(scenario: Scenario, steps: int | None) -> PettingZooWrapper:
 class Learner:
     """The shared networks, TorchRL's modules around them and the PPO loss."""
 
-    def __init__(self, width: int = 64, rate: float = 1e-4, seed: int = 0):
+    def __init__(self, width: int = 64, rate: float = 1e-4, seed: int = 0, anchor: float = 1.0):
         torch.manual_seed(seed)
         self.actor, self.critic = Actor(width), Critic(width)
+        #: the weight of the anchor to the demonstrated policy, and that policy (after imitate)
+        self.anchor_weight, self.anchor = anchor, None
         self.features = TensorDictModule(
             ViewFeatures(),
             in_keys=[(GROUP, "observation", f) for f in FIELDS],
@@ -181,6 +189,7 @@ class Learner:
                 (fit + 0.1 * value).backward()
                 optimiser.step()
                 losses.append(fit.item())
+        self.anchor = copy.deepcopy(self.actor).requires_grad_(False)
         return float(np.mean(losses))
 
     def update(self, batch: TensorDict, epochs: int, minibatch: int) -> dict[str, float]:
@@ -188,18 +197,34 @@ class Learner:
         totals: dict[str, list[float]] = {}
         for _ in range(epochs):
             for rows in torch.randperm(len(batch)).split(minibatch):
-                terms = self.loss(batch[rows])
+                part = batch[rows]
+                terms = self.loss(part)
                 loss = terms["loss_objective"] + terms["loss_critic"] + terms["loss_entropy"]
+                if self.anchor is not None:
+                    loc, _ = self.actor(part["features"], part["u_max"])
+                    held, _ = self.anchor(part["features"], part["u_max"])
+                    terms["loss_anchor"] = ((loc - held) / part["u_max"]).pow(2).mean()
+                    loss = loss + self.anchor_weight * terms["loss_anchor"]
                 self.optimiser.zero_grad()
                 loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.loss.parameters(), 1.0)
                 self.optimiser.step()
-                for key in ("loss_objective", "loss_critic", "loss_entropy"):
-                    totals.setdefault(key, []).append(terms[key].item())
+                for key in ("loss_objective", "loss_critic", "loss_entropy", "loss_anchor"):
+                    if key in terms:
+                        totals.setdefault(key, []).append(terms[key].item())
         return {key: float(np.mean(values)) for key, values in totals.items()}
 
-    def save(self, path: Path) -> None:
-        torch.save({"actor": self.actor.state_dict(), "critic": self.critic.state_dict()}, path)
+    def state(self) -> dict[str, dict[str, torch.Tensor]]:
+        """A copy of both networks' weights."""
+        return copy.deepcopy({"actor": self.actor.state_dict(), "critic": self.critic.state_dict()})
+
+    def save(self, path: Path, state: dict[str, dict[str, torch.Tensor]] | None = None) -> None:
+        """Write ``state`` (default: the networks' weights now)."""
+        torch.save(state or self.state(), path)
+
+    def restore(self, state: dict[str, dict[str, torch.Tensor]]) -> None:
+        self.actor.load_state_dict(state["actor"])
+        self.critic.load_state_dict(state["critic"])
 
     @staticmethod
     def load_actor(path: Path, width: int = 64) -> Actor:
@@ -292,6 +317,7 @@ def train(
     rows = []
     episode_seed, env_steps = FIRST_TRAINING_SEED, 0
     iteration = 0
+    best, kept = -math.inf, learner.state()
     while (iterations is None or iteration < iterations) and (
         time.process_time() - start < 60 * minutes
     ):
@@ -319,6 +345,12 @@ def train(
         }
         rows.append(row)
         log.info("%s", " ".join(f"{k}={v:.4g}" for k, v in row.items()))
+        recent = float(np.mean([r["return"] for r in rows[-WINDOW:]]))
+        if len(rows) >= min(WINDOW, iterations or WINDOW) and recent > best:
+            best, kept = recent, learner.state()
+            log.info("kept: mean return %.4g over the last %d iterations", best, WINDOW)
+    learner.save(out / "last.pt")
+    learner.restore(kept)
     learner.save(out / "checkpoint.pt")
     with open(out / "curve.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
