@@ -10,12 +10,21 @@ processes weighs more).
   memory), each holding the same two environments, stepped with random velocities drawn before
   the clock starts.
 - TorchRL: the PettingZoo environment through ``PettingZooWrapper`` (agent mask on, as
-  ``examples/learned_team`` trains), ``SerialEnv`` (one process) against ``ParallelEnv`` (one
-  process per environment), two environments each, rolled out with random actions.
+  ``examples/learned_team`` trains), two ways: ``SerialEnv`` (one process) against
+  ``ParallelEnv`` (one process per environment), two environments each, stepped together; and
+  data collectors with random actions, ``Collector`` (one environment, in this process) against
+  ``MultiSyncCollector`` (one environment in each of two processes, each collecting its share
+  of a batch on its own).
 
-Each case first runs a few steps untimed; steps count every environment's step (a vector step of
-two environments is two). The ratio is the two-process rate over the one-process rate, measured
-side by side in one run.
+Vector environments step their environments together, so each step waits for the slowest: a
+step's cost varies (the default team's estimator switches from the EKF to the adaptive IMM
+when its innovations reject the target model, an episode's end resets), and messages pass
+between processes at every step. Collectors meet once per batch.
+
+Every process runs one thread of linear algebra (set here unless the environment sets it),
+as process-parallel training does. Each case first runs a few steps untimed; steps count every
+environment's step (a vector step of two environments is two). The ratio is the two-process
+rate over the one-process rate, measured side by side in one run.
 
     python -m benchmarks.env_parallel           # about two minutes
     python -m benchmarks.env_parallel --quick   # a smoke run
@@ -29,7 +38,11 @@ import os
 import time
 from typing import Any
 
-from benchmarks.common import machine, save, table
+# one thread of linear algebra per process: two processes on two cores, not four threads
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+from benchmarks.common import machine, save, table  # noqa: E402
 
 SCENARIO = "sensing-temp"
 WORKERS = 2
@@ -98,6 +111,29 @@ def torchrl_rate(parallel: bool, record: bool, team: str | None, steps: int) -> 
         envs.close()
 
 
+def collector_rate(parallel: bool, record: bool, team: str | None, steps: int) -> float:
+    """Environment steps per second of TorchRL's data collectors with random actions: one
+    environment in this process, or one in each of two processes (``parallel``)."""
+    from torchrl.collectors import Collector, MultiSyncCollector
+
+    make = functools.partial(torchrl_env, record, team)
+    batch, total = 200, steps + 200
+    collector: Any = (
+        MultiSyncCollector([make] * WORKERS, None, frames_per_batch=batch, total_frames=total)
+        if parallel
+        else Collector(make, None, frames_per_batch=batch, total_frames=total)
+    )
+    try:
+        batches = iter(collector)
+        next(batches)  # untimed: the workers start, the first episodes reset
+        start, frames = time.perf_counter(), 0
+        for data in batches:
+            frames += data.numel()
+        return frames / (time.perf_counter() - start)
+    finally:
+        collector.shutdown()
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
@@ -109,6 +145,7 @@ def main(argv: list[str] | None = None) -> None:
     for library, rate, steps in (
         ("Gymnasium", gymnasium_rate, int(3000 * scale)),
         ("TorchRL", torchrl_rate, int(1000 * scale)),
+        ("TorchRL collectors", collector_rate, int(2000 * scale)),
     ):
         for team in (None, "paper"):
             for record in (True, False):

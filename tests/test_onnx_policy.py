@@ -185,3 +185,13 @@ def test_rtrack_run_refuses_a_mismatched_model_in_one_line_and_writes_nothing(tm
 def test_the_name_needs_a_path_after_the_colon():
     assert "give its model after the colon" in _refused("onnx:")
     assert "give the model file" in _refused("onnx")
+
+
+def test_the_shipped_learned_team_is_found_by_name_and_passes_check_policy():
+    from resilient_tracking.policies.onnx_policy import SHIPPED, model_path
+
+    assert model_path("learned-team") == SHIPPED / "learned-team.onnx"
+    report = check_policy("onnx:learned-team", shipped("comm-temp").with_overrides(steps=20))
+    assert report.ok, str(report)
+    with pytest.raises(ValueError, match="no such file .models shipped: learned-team"):
+        _policy("onnx:learned-tea")

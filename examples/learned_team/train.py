@@ -299,6 +299,7 @@ def train(
     seed: int,
     demo_minutes: float,
     demo_episodes: int,
+    anchor: float = 1.0,
 ) -> Learner:
     """Imitate the expert for ``demo_minutes`` (at most ``demo_episodes``), then run PPO until
     ``minutes`` of this process's CPU time in all (or ``iterations``) are spent; write the
@@ -308,7 +309,7 @@ def train(
     rng = np.random.default_rng(seed)
     pool = training_scenarios(generated)
     envs: dict[int, PettingZooWrapper] = {}
-    learner = Learner(seed=seed)
+    learner = Learner(seed=seed, anchor=anchor)
     if demo_episodes:
         demos = demonstrations(pool, rng, demo_minutes, demo_episodes, steps, gamma=0.98)
         fit = learner.imitate(demos, epochs=30)
@@ -400,6 +401,9 @@ def main(argv: list[str] | None = None) -> int:
         "--demo-episodes", type=int, default=1000, help="at most this many (0: no imitation)"
     )
     parser.add_argument(
+        "--anchor", type=float, default=1.0, help="weight of the anchor to the cloned policy"
+    )
+    parser.add_argument(
         "--eval-seeds", type=int, default=3, help="compare on seeds 1..N (0: no comparison)"
     )
     parser.add_argument(
@@ -411,7 +415,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     learner = train(
         args.out, args.minutes, args.iterations, args.episodes, args.generated, args.steps,
-        args.seed, args.demo_minutes, args.demo_episodes,
+        args.seed, args.demo_minutes, args.demo_episodes, args.anchor,
     )  # fmt: skip
     plot_curve(args.out)
     model = export_onnx(learner.actor, args.out / "team.onnx")
