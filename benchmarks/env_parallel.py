@@ -43,6 +43,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from benchmarks.common import machine, save, table  # noqa: E402
+from benchmarks.env_steps import vector_rate  # noqa: E402
 
 SCENARIO = "sensing-temp"
 WORKERS = 2
@@ -65,18 +66,7 @@ def gymnasium_rate(parallel: bool, record: bool, team: str | None, steps: int) -
         if parallel
         else gymnasium.vector.SyncVectorEnv(make)
     )
-    try:
-        envs.action_space.seed(0)
-        actions = [envs.action_space.sample() for _ in range(steps // WORKERS)]
-        envs.reset(seed=0)
-        for action in actions[:10]:
-            envs.step(action)
-        start = time.perf_counter()
-        for action in actions:
-            envs.step(action)
-        return WORKERS * len(actions) / (time.perf_counter() - start)
-    finally:
-        envs.close()
+    return vector_rate(envs, steps)
 
 
 def torchrl_env(record: bool, team: str | None) -> Any:

@@ -15,6 +15,10 @@ from resilient_tracking.runs.manifest import code_digest
 from resilient_tracking.scenario import Scenario
 from resilient_tracking.scenario.teams import get_team
 
+#: The tag of an arm whose policy runs in another's place (``rtrack reproduce --policy``): the
+#: policy it stands for, whose claims judge it.
+IN_PLACE_OF = "in_place_of"
+
 
 @dataclass(frozen=True)
 class Variant:

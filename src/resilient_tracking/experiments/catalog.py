@@ -21,8 +21,7 @@ from typing import Any
 import yaml
 
 from resilient_tracking import builtin_scenarios
-from resilient_tracking.experiments.arms import Experiment, Task, Variant, team_arm
-from resilient_tracking.experiments.claims import IN_PLACE_OF
+from resilient_tracking.experiments.arms import IN_PLACE_OF, Experiment, Task, Variant, team_arm
 from resilient_tracking.experiments.generator import (
     stored_adversarial_suite,
     stored_beyond_suite,

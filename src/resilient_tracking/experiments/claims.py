@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from resilient_tracking.experiments.arms import IN_PLACE_OF
 from resilient_tracking.experiments.catalog import Experiment
 from resilient_tracking.experiments.generalization import (
     straggler_share,
@@ -388,10 +389,6 @@ CHECKS = {
     "adversarial": adversarial_targets,
     "beyond": beyond_targets,
 }
-
-
-#: The tag of an arm whose policy runs in another's place (``rtrack reproduce --policy``).
-IN_PLACE_OF = "in_place_of"
 
 
 def check(exp: Experiment, summary: pd.DataFrame) -> list[Claim]:
