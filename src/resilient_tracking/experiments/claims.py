@@ -396,6 +396,5 @@ def check(exp: Experiment, summary: pd.DataFrame) -> list[Claim]:
     failure-aware planner's place (tagged ``in_place_of``) is judged as that planner's arm."""
     column = f"tag_{IN_PLACE_OF}"
     if column in summary:
-        stands_for = summary[column].where(summary[column].notna(), summary["policy"])
-        summary = summary.assign(policy=stands_for)
+        summary = summary.assign(policy=summary[column].fillna(summary["policy"]))
     return CHECKS[exp.kind](exp, summary)
