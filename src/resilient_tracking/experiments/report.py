@@ -157,6 +157,7 @@ def experiment_section(
         + "\n\n"
         + "\n".join(
             f"- {'✅' if c.holds else '🟰' if c.tie else '❌'}{mark} {c.statement}: {c.evidence}"
+            + (f"\n  - why: {c.why}" if c.why else "")
             for c in claims
         ),
     ]

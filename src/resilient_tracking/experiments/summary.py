@@ -147,6 +147,9 @@ def summarise_run(run: RunData) -> dict[str, Any]:
         # sensors and radios lost to zones the robot knew, or did not, before (known_zones.py)
         **losses_by_knowledge(run),
         "sensing_failed_end": int(team["n_sensing_failed"].iloc[-1]),
+        # shares of robot-steps spent without a working sensor and without a working radio
+        "sensing_down_share": float(team["n_sensing_failed"].mean() / n_robots),
+        "comm_down_share": float(team["n_comm_failed"].mean() / n_robots),
         "sensing_end": int(robots_end["sensing_ok"].astype(bool).sum()),
         "stragglers": len(far),
         # of them, robots whose radio a zone destroyed: they circle their attacker (Alg. 4)
