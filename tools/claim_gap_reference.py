@@ -8,9 +8,11 @@ slowly: the scenario's geometry, or the method's own settings, decide it.
 
     python tools/claim_gap_reference.py bench-complex bench-complex-route --seeds 1-5
     python tools/claim_gap_reference.py comm-temp --seeds 1-10
-    python tools/claim_gap_reference.py comm-temp --seeds 1-10 --team default
+    python tools/claim_gap_reference.py comm-temp-route --seeds 1-10 --team default
 
-``--team`` runs the failure-aware arms with another named team (`rtrack teams`).
+``--team`` runs the failure-aware arms with another named team (`rtrack teams`); only on the
+route program's copies, since the one-step experiments set the ``paper`` team's settings in
+full.
 
 Prints, per experiment, arm and map, the mean over seeds of the MSE and trace, the share of
 seeds that end with a sensing robot, and the sensors and radios lost per run to zones the robot
@@ -68,6 +70,8 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [name for name in args.experiments if name not in known]
     if unknown:
         parser.error(f"no experiment {', '.join(unknown)}; choose from {', '.join(known)}")
+    if args.team and any(known[name].program == "one_step" for name in args.experiments):
+        parser.error("--team: the one-step experiments run the paper team's settings in full")
     seeds = parse_seeds(args.seeds, MAX_SEEDS)
     cases = [
         (task, zone_map)
