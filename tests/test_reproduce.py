@@ -529,3 +529,20 @@ def test_the_committed_report_and_its_constraints_name_the_same_wheels():
     )
     assert named == {"NumPy": pins["numpy"], "CasADi": pins["casadi"]}
     assert "OPENBLAS_CORETYPE=Haswell" in header  # made with the kernels pinned
+
+
+def test_a_comparison_with_one_seed_is_undecided_not_failing():
+    from resilient_tracking.experiments.claims import Claim
+    from resilient_tracking.experiments.report import _headline
+
+    claims = [
+        Claim("x", "a wins", True, "win"),
+        Claim("x", "b wins", False, "loss"),
+        Claim("x", "c wins", False, "tie: ...", tie=True),
+        Claim("x", "d wins", False, "short: ...", short=True),
+    ]
+    line = _headline("targets hold", claims, short=True)
+    assert line.startswith("**1 of 4 targets hold.**")
+    failing = line.split("Not holding: ")[1].split(" Tied")[0]
+    assert "b wins" in failing and "d wins" not in failing
+    assert line.endswith("Undecided (fewer than two paired seeds, so no interval): x: d wins")

@@ -44,6 +44,8 @@ class Claim:
     evidence: str
     #: a comparison that decided nothing (its interval spans zero): neither won nor lost
     tie: bool = False
+    #: a comparison with fewer than two paired seeds: no interval, so undecided
+    short: bool = False
     #: for a claim that does not hold: the measurements that say why (empty when it holds)
     why: str = ""
 
@@ -231,6 +233,7 @@ def _loses_rarely(
         "scenarios (ties apart)",
         outcomes.n > 0 and outcomes.losses <= share * outcomes.n,
         _suite_evidence(outcomes, means),
+        short=outcomes.n == 0,  # no scenario with two paired seeds: nothing decided
     )
 
 
@@ -312,6 +315,7 @@ def _extended_lower(exp: Experiment, name: str, rows: pd.DataFrame) -> list[Clai
                     outcome == "win",
                     evidence,
                     tie=outcome == "tie",
+                    short=outcome == "short",
                 )
             )
     return out

@@ -156,8 +156,8 @@ def experiment_section(
         + mark
         + "\n\n"
         + "\n".join(
-            f"- {'✅' if c.holds else '🟰' if c.tie else '❌'}{mark} {c.statement}: {c.evidence}"
-            + (f"\n  - why: {c.why}" if c.why else "")
+            f"- {'✅' if c.holds else '🟰' if c.tie else '❔' if c.short else '❌'}{mark} "
+            f"{c.statement}: {c.evidence}" + (f"\n  - why: {c.why}" if c.why else "")
             for c in claims
         ),
     ]
@@ -221,8 +221,9 @@ def _group(exp: Experiment) -> str:
 
 
 def _headline(label: str, claims: list[Claim], short: bool) -> str:
-    failing = [c for c in claims if not c.holds and not c.tie]
+    failing = [c for c in claims if not c.holds and not c.tie and not c.short]
     ties = [c for c in claims if c.tie]
+    undecided = [c for c in claims if c.short]
     line = f"**{sum(c.holds for c in claims)} of {len(claims)} {label}.**"
     if short:
         line += (
@@ -237,6 +238,10 @@ def _headline(label: str, claims: list[Claim], short: bool) -> str:
         line += (
             " Tied (the interval of the per-seed differences spans zero: neither won nor lost): "
             + "; ".join(f"{c.experiment}: {c.statement} ({c.evidence})" for c in ties)
+        )
+    if undecided:
+        line += " Undecided (fewer than two paired seeds, so no interval): " + "; ".join(
+            f"{c.experiment}: {c.statement}" for c in undecided
         )
     return line
 
