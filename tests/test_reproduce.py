@@ -223,13 +223,17 @@ def _summary(**columns):
     return pd.DataFrame(columns)
 
 
+#: Two seeds of a pair experiment where failure-aware loses in trace and wins in MSE.
+PAIR = {
+    "policy": ["vanilla", "failure_aware"] * 2,
+    "seed": [1, 1, 2, 2],
+    "trace": [1.0, 2.0, 1.0, 2.0],
+    "mse": [2.0, 1.0, 2.0, 1.0],
+}
+
+
 def test_claims_fail_when_the_numbers_say_so():
-    pair = _summary(
-        policy=["vanilla", "failure_aware"] * 2,
-        seed=[1, 1, 2, 2],
-        trace=[1.0, 2.0, 1.0, 2.0],
-        mse=[2.0, 1.0, 2.0, 1.0],
-    )
+    pair = _summary(**PAIR)
     holds = {c.statement: c.holds for c in check(TINY, pair)}
     assert holds == {
         "adaptive < vanilla in time-averaged trace": False,
@@ -260,10 +264,7 @@ def test_claims_fail_when_the_numbers_say_so():
 
 def test_a_failing_paper_claim_says_why_with_its_measurements():
     pair = _summary(
-        policy=["vanilla", "failure_aware"] * 2,
-        seed=[1, 1, 2, 2],
-        trace=[1.0, 2.0, 1.0, 2.0],
-        mse=[2.0, 1.0, 2.0, 1.0],
+        **PAIR,
         sensing_down_share=[0.0, 0.0, 0.0, 0.0],
         comm_down_share=[0.08, 0.02, 0.06, 0.0],
         stragglers=[0, 1, 0, 2],
