@@ -342,7 +342,7 @@ def _false_alarms(names: tuple[str, ...], seeds: range, jobs: int = 1) -> tuple[
 @pytest.mark.slow
 def test_at_most_one_false_alarm_per_ten_thousand_robot_steps() -> None:
     """The paper's missions, the benchmarks, an evasive mission and the degrading-sensor
-    mission, zones removed, five seeds: more than 50 000 robot-steps."""
+    mission, zones removed, four seeds: more than 40 000 robot-steps."""
     names = (
         "sensing-temp",
         "sensing-perm",
@@ -355,6 +355,6 @@ def test_at_most_one_false_alarm_per_ten_thousand_robot_steps() -> None:
         "evasive-open",
         "sensing-degrade",
     )
-    alarms, robot_steps = _false_alarms(names, SEEDS[:5], jobs=2)
-    assert robot_steps >= 50_000
+    alarms, robot_steps = _false_alarms(names, SEEDS[:4], jobs=2)
+    assert robot_steps >= 40_000
     assert alarms <= robot_steps / 10_000

@@ -114,6 +114,10 @@ QUICK_MAX_PAIRS = 16
 #: paired intervals, which two seeds leave as wide as no decision, so a quick run only shows
 #: that every arm runs and reports (its comparisons are ``short``).
 QUICK_BEYOND_PAPER_SEEDS = 1
+#: The shipped scenarios of a quick run's adversarial and beyond experiments: one of each kind
+#: of claim (an evasive and a luring target; a moving and a degrading zone).
+QUICK_ADVERSARIAL = ("evasive-zones", "lure-sensing")
+QUICK_BEYOND = ("moving-sensing", "sensing-degrade")
 
 
 def _sensing_only(scenario: Scenario) -> bool:
@@ -386,12 +390,12 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
                 "targets that evade or lure (docs/model.md §1): the teams vanilla, route (the "
                 "EKF) and default (the adaptive estimator; where targets lure, the team guarded, "
                 "with the lure guard, as a fourth arm), on "
-                + ", ".join(f"`{n}`" for n in ADVERSARIAL)
+                + ", ".join(f"`{n}`" for n in (QUICK_ADVERSARIAL if quick else ADVERSARIAL))
                 + f", and on {QUICK_SUITE if quick else ADVERSARIAL_SUITE_SIZE} scenarios of the "
                 f"stored adversarial suite{' with small teams' if quick else ''} "
                 f"({ADVERSARIAL_SUITE_SEEDS} seeds each)"
             ),
-            generated=partial(adversarial_cases, ADVERSARIAL, QUICK_SUITE, QUICK_MAX_PAIRS)
+            generated=partial(adversarial_cases, QUICK_ADVERSARIAL, QUICK_SUITE, QUICK_MAX_PAIRS)
             if quick
             else adversarial_cases,
         ),
@@ -404,12 +408,12 @@ def catalog(quick: bool = False) -> dict[str, Experiment]:
             description=(
                 "the world's features beyond the paper (docs/beyond.md): the teams vanilla, "
                 "default and beyond on "
-                + ", ".join(f"`{n}`" for n in BEYOND)
+                + ", ".join(f"`{n}`" for n in (QUICK_BEYOND if quick else BEYOND))
                 + f", and on {QUICK_SUITE if quick else SUITE_SIZE} scenarios of the stored "
                 f"beyond suite{' with small teams' if quick else ''} "
                 f"({BEYOND_SUITE_SEEDS} seeds each)"
             ),
-            generated=partial(beyond_cases, BEYOND, QUICK_SUITE, QUICK_MAX_PAIRS, 2)
+            generated=partial(beyond_cases, QUICK_BEYOND, QUICK_SUITE, QUICK_MAX_PAIRS, 2)
             if quick
             else beyond_cases,
         ),
