@@ -35,6 +35,7 @@ from resilient_tracking.experiments.comparison import parse_seeds
 from resilient_tracking.experiments.summary import summarise_run
 from resilient_tracking.runs.reading import run_data
 from resilient_tracking.scenario.overrides import every_zone_known
+from resilient_tracking.scenario.teams import TEAMS
 from resilient_tracking.sim.episode import run_episode
 
 MAPS = ("found", "known")
@@ -61,9 +62,9 @@ def run(task: Task, known: bool, team: str | None) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("experiments", nargs="+", help="names from `rtrack reproduce --list`")
+    parser.add_argument("experiments", nargs="+", help="experiment names (a wrong one lists them)")
     parser.add_argument("--seeds", default="1-10", help="a range, e.g. 1-10")
-    parser.add_argument("--team", help="a named team for the failure-aware arms")
+    parser.add_argument("--team", choices=TEAMS, help="a named team for the failure-aware arms")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args(argv)
     known = catalog()
